@@ -1,0 +1,94 @@
+// Binary BVH over the scene's triangles: build (bvh_build.cpp) is separate
+// from traversal (traverse_single.cpp). Later layers add wide nodes, packets
+// and streams over the same tree; every kernel must return identical closest
+// hits for the same rays.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <vector>
+
+#include "../core/bbox.h"
+#include "../core/ray.h"
+#include "../core/vec.h"
+#include "aligned_allocator.h"
+
+namespace coherent {
+
+struct Scene;
+
+// Per-ray work counters: the architecture-independent cost metric of the
+// packets paper (box and primitive tests per ray).
+struct TraversalCounters {
+    uint64_t rays = 0;
+    uint64_t node_visits = 0;
+    uint64_t box_tests = 0;
+    uint64_t triangle_tests = 0;
+
+    TraversalCounters& operator+=(const TraversalCounters& o) {
+        rays += o.rays; node_visits += o.node_visits; box_tests += o.box_tests; triangle_tests += o.triangle_tests;
+        return *this;
+    }
+};
+
+// 32-byte node. Interior: children at `index` and `index + 1` (left, right),
+// count == 0. Leaf: `count` triangles starting at prim_order[index].
+struct BvhNode {
+    BBox box;  // 24 bytes
+    uint32_t index = 0;
+    uint32_t count = 0;
+    bool is_leaf() const { return count != 0; }
+};
+
+struct BvhBuildOptions {
+    int bins = 16;             // SAH bins per axis
+    int max_leaf_size = 4;     // triangles per leaf at most (except for unsplittable sets)
+    float traversal_cost = 1.0f;
+    float intersection_cost = 1.0f;
+};
+
+struct BvhBuildStats {
+    double seconds = 0.0;
+    size_t nodes = 0;
+    size_t leaves = 0;
+    size_t bytes = 0;  // nodes + reordered triangle data
+    int depth = 0;
+};
+
+class Bvh {
+public:
+    Bvh() = default;
+    // Builds over scene.vertices (3 per triangle). Parallel (TBB).
+    void build(const Scene& scene, const BvhBuildOptions& opt = {});
+    // For tests and tools: build over a raw triangle soup (3 vertices per triangle).
+    void build(const std::vector<Vec3f>& triangle_vertices, const BvhBuildOptions& opt = {});
+
+    // Closest hit in [ray.tmin, ray.tmax]. On a hit, fills `hit` and returns true.
+    // Watertight (Woop et al. 2013): rays through shared edges/vertices never escape.
+    bool intersect(const Ray& ray, Hit& hit, TraversalCounters* counters = nullptr) const;
+    // Any hit in [ray.tmin, ray.tmax] (shadow rays).
+    bool occluded(const Ray& ray, TraversalCounters* counters = nullptr) const;
+
+    const std::vector<BvhNode>& nodes() const { return nodes_; }
+    const BvhBuildStats& build_stats() const { return stats_; }
+    BBox bounds() const { return nodes_.empty() ? BBox{} : nodes_[0].box; }
+    bool empty() const { return nodes_.empty(); }
+
+    // Leaf slot -> scene triangle index (leaves index into this order).
+    const std::vector<uint32_t>& prim_order() const { return prim_order_; }
+
+private:
+    void build_from(const Vec3f* triangle_vertices, size_t triangle_count, const BvhBuildOptions& opt);
+    template <bool kAnyHit, bool kCount>
+    bool traverse(const Ray& ray, Hit* hit, TraversalCounters* counters) const;
+
+    std::vector<BvhNode> nodes_;
+    std::vector<uint32_t> prim_order_;  // leaf slot -> scene triangle index
+    std::vector<Vec3f> tri_vertices_;   // reordered copy, 3 per leaf slot (cache-friendly leaves)
+    // Traversal copy of nodes_: node i lives at trav_nodes_[i + 1], so that every
+    // sibling pair (2k+1, 2k+2) fills exactly one 64-byte cache line.
+    std::vector<BvhNode, AlignedAllocator<BvhNode, 64>> trav_nodes_;
+    BvhBuildStats stats_;
+};
+
+}  // namespace coherent

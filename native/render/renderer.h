@@ -1,0 +1,57 @@
+// The renderer: drives sampling, tracing and shading over the film, in
+// parallel, with progress reporting and prompt cancellation.
+#pragma once
+
+#include <atomic>
+#include <functional>
+#include <memory>
+
+#include "../accel/bvh.h"
+#include "../film/film.h"
+#include "../scene/scene.h"
+#include "settings.h"
+#include "stats.h"
+
+namespace coherent {
+
+// Called after every completed sample pass (and periodically within long
+// passes with the same `samples_done`). Return false to cancel.
+// Invoked on the thread that called render(), never concurrently.
+struct Progress {
+    int samples_done = 0;
+    int samples_total = 0;
+    double fraction = 0.0;  // [0,1] of the whole render
+    double seconds = 0.0;
+    const RenderStats* stats = nullptr;
+};
+using ProgressCallback = std::function<bool(const Progress&)>;
+
+class Renderer {
+public:
+    // The scene must be finalize()d and outlive the renderer. Builds the BVH.
+    Renderer(const Scene& scene, const RenderSettings& settings);
+    ~Renderer();
+
+    // Renders settings.spp samples per pixel, pass by pass (sample 0 over the
+    // whole film, then sample 1, ...). Returns false if cancelled. Thread-safe
+    // with respect to cancel() only.
+    bool render(const ProgressCallback& progress = {});
+    void cancel() { cancelled_.store(true, std::memory_order_relaxed); }
+    bool cancelled() const { return cancelled_.load(std::memory_order_relaxed); }
+
+    const Film& film() const { return film_; }
+    const RenderStats& stats() const { return stats_; }
+    const SceneFeatures& active_features() const { return features_; }
+    const Bvh& bvh() const { return bvh_; }
+
+private:
+    const Scene& scene_;
+    RenderSettings settings_;
+    SceneFeatures features_;
+    Bvh bvh_;
+    Film film_;
+    RenderStats stats_;
+    std::atomic<bool> cancelled_{false};
+};
+
+}  // namespace coherent

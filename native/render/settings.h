@@ -1,0 +1,33 @@
+// Everything a render needs besides the scene. Shared by CLI and Blender.
+#pragma once
+
+#include <cstdint>
+
+namespace coherent {
+
+struct RenderSettings {
+    int width = 512, height = 512;      // full frame size in pixels (after resolution %)
+    // Render border in pixels, [x0, x1) x [y0, y1), y = 0 at the TOP row.
+    // The film covers only the border region; defaults to the whole frame.
+    int border_x0 = 0, border_y0 = 0, border_x1 = -1, border_y1 = -1;
+
+    int spp = 16;
+    uint64_t seed = 0;
+    int threads = 0;                    // 0 = all cores
+
+    // Blender's Light Paths > Max Bounces.
+    int max_bounces = 12;
+    int diffuse_bounces = 4;
+    int glossy_bounces = 4;
+    int transmission_bounces = 12;
+    int rr_min_bounces = 3;             // Russian roulette starts after this many bounces
+
+    bool transparent_film = false;      // Film > Transparent: world seen directly gives alpha 0
+    bool force_all_features = false;    // ignore SceneFeatures specialisation (benchmarks)
+    int tile_size = 32;
+
+    int border_width() const { return (border_x1 < 0 ? width : border_x1) - border_x0; }
+    int border_height() const { return (border_y1 < 0 ? height : border_y1) - border_y0; }
+};
+
+}  // namespace coherent

@@ -1,0 +1,30 @@
+// Render statistics: what was traced, by ray type, and what was discarded.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <string>
+
+#include "../accel/bvh.h"
+
+namespace coherent {
+
+enum class RayType : uint8_t { Camera, Shadow, Diffuse, Glossy, Reflection, Refraction, Count };
+const char* ray_type_name(RayType t);  // "camera", "shadow", "diffuse", ...
+
+struct RenderStats {
+    std::array<uint64_t, size_t(RayType::Count)> rays{};
+    TraversalCounters traversal;
+    uint64_t nonfinite_samples = 0;  // samples whose value was NaN/Inf, discarded
+    uint64_t samples = 0;            // pixel samples finished
+    double seconds = 0.0;
+
+    uint64_t total_rays() const {
+        uint64_t n = 0;
+        for (uint64_t r : rays) n += r;
+        return n;
+    }
+    RenderStats& operator+=(const RenderStats& o);
+};
+
+}  // namespace coherent

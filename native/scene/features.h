@@ -1,0 +1,36 @@
+// What effects a scene calls for, computed once so the renderer generates only
+// the ray types and code paths it needs.
+#pragma once
+
+#include <string>
+#include <vector>
+
+namespace coherent {
+
+struct Scene;
+
+struct SceneFeatures {
+    bool emissive_meshes = false;  // some triangle has an emissive material
+    bool point_lights = false;     // point lights
+    bool spot_lights = false;
+    bool sun_lights = false;
+    bool area_lights = false;
+    bool diffuse = false;          // some closure has a diffuse lobe
+    bool glossy = false;           // rough (alpha > threshold) reflection lobe
+    bool specular = false;         // near-perfect mirror reflection lobe
+    bool glass = false;            // transmission lobe
+    bool depth_of_field = false;   // camera aperture > 0
+    bool world_light = false;      // non-black world colour
+
+    bool any_light() const {
+        return emissive_meshes || point_lights || spot_lights || sun_lights || area_lights || world_light;
+    }
+    // Names of the enabled features, for statistics and reports.
+    std::vector<std::string> names() const;
+    // Every feature on: used to measure what specialisation buys.
+    static SceneFeatures all();
+};
+
+SceneFeatures compute_features(const Scene& scene);
+
+}  // namespace coherent

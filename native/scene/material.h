@@ -1,0 +1,42 @@
+// Materials: a weighted sum of up to four principled closures plus emission.
+//
+// One closure type covers every BSDF the front ends produce (Principled,
+// Diffuse, Glossy, Glass, Emission, Mix and Add nodes are all expressed as
+// closure parameters and weights), so the integrator has a single, small
+// shading path and SceneFeatures can tell from the parameters which lobes exist.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <string>
+
+#include "../core/vec.h"
+
+namespace coherent {
+
+// Blender's Principled BSDF restricted to constant inputs.
+// Lobes: Lambert diffuse, GGX dielectric specular (F0 from `specular`),
+// GGX metal (F0 = base_color), GGX glass (smooth when roughness ~ 0).
+struct Closure {
+    Vec3f base_color{0.8f, 0.8f, 0.8f};
+    float metallic = 0.0f;      // [0,1] blend diffuse/dielectric -> metal
+    float roughness = 0.5f;     // [0,1] perceptual; alpha = roughness^2
+    float specular = 0.5f;      // [0,1] dielectric F0 = 0.08 * specular (Blender convention)
+    float transmission = 0.0f;  // [0,1] blend opaque -> glass (for the non-metal part)
+    float ior = 1.45f;          // index of refraction for transmission
+};
+
+struct Material {
+    std::string name;
+    std::array<Closure, 4> closures{};
+    // Non-negative weights. Mix nodes give weights summing to 1; Add nodes may
+    // exceed 1 (Blender adds closures). Zero-weight closures are ignored.
+    std::array<float, 4> weights{1.0f, 0.0f, 0.0f, 0.0f};
+    int closure_count = 1;
+    Vec3f emission{0.0f, 0.0f, 0.0f};  // emitted radiance (colour x strength), W/(sr m^2) as in Cycles
+    // Blender's alpha is not supported yet; every surface is opaque.
+
+    bool is_emissive() const { return emission.x > 0.0f || emission.y > 0.0f || emission.z > 0.0f; }
+};
+
+}  // namespace coherent

@@ -1,0 +1,84 @@
+// The one scene representation: flat, validated, world-space triangle arrays
+// plus materials, lights, camera and world. Front ends (Blender export, glTF
+// loader, tests) fill it through add_mesh(), which validates every input.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "../core/bbox.h"
+#include "../core/vec.h"
+#include "camera.h"
+#include "features.h"
+#include "light.h"
+#include "material.h"
+
+namespace coherent {
+
+// What validation removed, per reason. Reported to the user as one warning.
+struct DropReport {
+    size_t nonfinite_vertices = 0;     // triangles dropped because a vertex was NaN/Inf
+    size_t out_of_range_indices = 0;   // triangles dropped for an index >= vertex count
+    size_t degenerate_triangles = 0;   // triangles dropped for zero area
+    size_t bad_material_ids = 0;       // material id out of range, replaced by default material
+    std::vector<std::string> skipped_meshes;  // meshes rejected as a whole, with the reason
+    std::vector<std::string> meshes_with_drops;  // names of meshes that lost triangles or had bad material ids
+
+    size_t total_triangles() const { return nonfinite_vertices + out_of_range_indices + degenerate_triangles; }
+    bool empty() const { return total_triangles() == 0 && bad_material_ids == 0 && skipped_meshes.empty(); }
+    // One human-readable line, empty when nothing was dropped.
+    std::string summary() const;
+};
+
+// Input to add_mesh: borrowed, row-major arrays (numpy-compatible).
+struct MeshInput {
+    std::string name;
+    const float* positions = nullptr;     // vertex_count x 3, object space
+    size_t vertex_count = 0;
+    const uint32_t* indices = nullptr;    // triangle_count x 3
+    size_t triangle_count = 0;
+    const float* normals = nullptr;       // optional: per-corner normals, triangle_count x 3 x 3 (object space)
+    const uint32_t* material_ids = nullptr;  // optional: triangle_count entries, index into `material_slots`
+    std::vector<uint32_t> material_slots;    // scene material index per slot; empty => default material 0
+    Transform object_to_world;
+};
+
+struct Scene {
+    // --- geometry (world space), triangle i uses vertices 3i, 3i+1, 3i+2 ---
+    std::vector<Vec3f> vertices;        // 3 per triangle (unindexed: simplest for BVH leaves and for validation)
+    std::vector<Vec3f> normals;         // 3 per triangle shading normals; geometric normal used if size() == 0 for all
+    std::vector<uint8_t> has_normals;   // 1 per triangle: 1 if `normals` holds real shading normals
+    std::vector<uint32_t> material_of;  // 1 per triangle
+    std::vector<uint32_t> object_of;    // 1 per triangle: index into object_names
+    std::vector<std::string> object_names;
+
+    std::vector<Material> materials;    // materials[0] always exists (default grey diffuse)
+    std::vector<Light> lights;
+    Vec3f world_color{0.0f, 0.0f, 0.0f};  // constant environment radiance
+    Camera camera;
+
+    DropReport dropped;
+
+    Scene();
+
+    size_t triangle_count() const { return material_of.size(); }
+    BBox bounds() const;
+
+    // Validates and appends a mesh in world space. Never throws for bad data:
+    // bad triangles are dropped and counted in `dropped`; a mesh with nothing
+    // usable is listed in dropped.skipped_meshes. Returns triangles added.
+    size_t add_mesh(const MeshInput& mesh);
+    uint32_t add_material(const Material& m);  // returns its index
+
+    // Computed by finalize(); valid until the scene changes.
+    SceneFeatures features;
+    // Emissive triangles, for next-event estimation.
+    std::vector<uint32_t> emissive_triangles;
+    // Per-triangle world-space geometric normal (unit, from the winding), filled by finalize().
+    std::vector<Vec3f> geometric_normals;
+    void finalize();
+};
+
+}  // namespace coherent
