@@ -1,0 +1,241 @@
+# SPDX-License-Identifier: Apache-2.0
+"""The Coherent RenderEngine: final renders with progressive display and passes.
+
+A render runs in Blender's render thread: export the depsgraph (export.py),
+build the native Renderer (BVH), then render pass by pass. The native render
+releases the GIL and calls back into Python after every sample pass; the
+callback reports progress and statistics, shows the image refining (at most
+every PREVIEW_INTERVAL seconds) and polls test_break() to cancel promptly.
+
+Errors never produce a silent blank image: they are reported with
+report({'ERROR'}) (a command-line render then exits non-zero and writes no
+file) and error_set() (shown in the Image Editor).
+"""
+
+from __future__ import annotations
+
+import sys
+import time
+import traceback
+
+import bpy
+import numpy as np
+
+from . import export, viewport
+
+# Seconds between progressive updates of the displayed image.
+PREVIEW_INTERVAL = 0.5
+
+# Native pass name -> (Blender channel ids, Blender pass type) for register_pass.
+_PASSES = {
+    "Combined": ("RGBA", "COLOR"),
+    "Depth": ("Z", "VALUE"),
+    "Normal": ("XYZ", "VECTOR"),
+}
+
+
+def _format_time(seconds):
+    seconds = max(0.0, seconds)
+    minutes, secs = divmod(int(round(seconds)), 60)
+    hours, minutes = divmod(minutes, 60)
+    return f"{hours}:{minutes:02d}:{secs:02d}" if hours else f"{minutes:02d}:{secs:02d}"
+
+
+def render_size(render):
+    """Full-frame size in pixels after Resolution %, as Blender computes it."""
+    return (render.resolution_x * render.resolution_percentage // 100,
+            render.resolution_y * render.resolution_percentage // 100)
+
+
+def border_pixels(render, width, height):
+    """Render border as (x0, y0, x1, y1) pixels with y = 0 at the TOP row, or None.
+
+    Blender truncates border * size to integers with y measured from the
+    bottom (render_init_from_main); the native renderer measures y from the top.
+    """
+    if not render.use_border:
+        return None
+    x0, x1 = int(render.border_min_x * width), int(render.border_max_x * width)
+    yb0, yb1 = int(render.border_min_y * height), int(render.border_max_y * height)
+    if (x0, yb0, x1, yb1) == (0, 0, width, height):
+        return None
+    if x1 <= x0 or yb1 <= yb0:
+        raise RuntimeError("the render border is empty")
+    return (x0, height - yb1, x1, height - yb0)
+
+
+def render_threads(scene):
+    threads = scene.coherent.threads
+    if threads == 0 and scene.render.threads_mode == "FIXED":
+        threads = scene.render.threads
+    return threads
+
+
+class CoherentRenderEngine(bpy.types.RenderEngine):
+    bl_idname = "COHERENT"
+    bl_label = "Coherent"
+    bl_use_postprocess = True
+    # Use Blender's shader nodes (Principled BSDF, ...) as the material UI.
+    bl_use_shading_nodes_custom = False
+    # Material Preview shading in the viewport uses EEVEE.
+    bl_use_eevee_viewport = True
+    bl_use_preview = False
+
+    def __init__(self, *args, **kwargs):
+        super().__init__(*args, **kwargs)
+        self._renderer = None
+        self._viewport = None
+
+    def __del__(self):
+        # Blender may destroy an instance whose __init__ never ran.
+        renderer = getattr(self, "_renderer", None)
+        if renderer is not None:
+            renderer.cancel()
+        session = getattr(self, "_viewport", None)
+        if session is not None:
+            session.free()
+
+    # -- viewport ("Rendered" shading) -------------------------------------------
+
+    def view_update(self, context, depsgraph):
+        if getattr(self, "_viewport", None) is None:
+            self._viewport = viewport.ViewportSession()
+        self._viewport.update(self, context, depsgraph)
+
+    def view_draw(self, context, depsgraph):
+        session = getattr(self, "_viewport", None)
+        if session is None:
+            return
+        try:
+            session.draw(self, context, depsgraph)
+        except Exception as e:  # noqa: BLE001 - never let a draw callback spam tracebacks
+            session.error = f"Coherent: {type(e).__name__}: {e}"
+            traceback.print_exc()
+            self.update_stats("", session.error)
+
+    # -- passes -----------------------------------------------------------------
+
+    def update_render_passes(self, scene=None, renderlayer=None):
+        self.register_pass(scene, renderlayer, "Combined", 4, "RGBA", "COLOR")
+        if renderlayer.use_pass_z:
+            self.register_pass(scene, renderlayer, "Depth", 1, "Z", "VALUE")
+        if renderlayer.use_pass_normal:
+            self.register_pass(scene, renderlayer, "Normal", 3, "XYZ", "VECTOR")
+
+    # -- final render -------------------------------------------------------------
+
+    def render(self, depsgraph):
+        if self.is_preview:
+            return
+        try:
+            self._render(depsgraph)
+        except Exception as e:  # noqa: BLE001 - every failure must reach the user
+            self._fail(e)
+
+    def _fail(self, error):
+        if isinstance(error, (ImportError, export.ExportError)):
+            message = str(error)
+        else:
+            traceback.print_exc()
+            message = f"{type(error).__name__}: {error}"
+        if not message.startswith("Coherent"):
+            message = "Coherent: " + message
+        print(message, file=sys.stderr)
+        self.error_set(message)
+        self.report({"ERROR"}, message)
+
+    def _warn(self, message):
+        print(f"Coherent warning: {message}", file=sys.stderr)
+        self.report({"WARNING"}, message)
+
+    def _render(self, depsgraph):
+        from . import native_module  # deferred: the package imports this module first
+
+        native = native_module()
+        scene = depsgraph.scene
+        render = scene.render
+        props = scene.coherent
+
+        width, height = render_size(render)
+        if self.resolution_x > 0 and self.resolution_y > 0:
+            width, height = self.resolution_x, self.resolution_y
+        border = border_pixels(render, width, height)
+
+        self.update_stats("", "Exporting scene")
+        exported = export.export_scene(native, depsgraph, width, height,
+                                       camera_override=self.camera_override, cancelled=self.test_break)
+        for warning in exported.warnings:
+            self._warn(warning)
+        if self.test_break():
+            return
+        nscene = exported.scene
+
+        self.update_stats("", f"Building BVH ({nscene.triangle_count:,} triangles)")
+        build_start = time.perf_counter()
+        renderer = native.Renderer(
+            nscene, width=width, height=height, spp=props.samples,
+            seed=props.seed_for_frame(scene.frame_current), threads=render_threads(scene),
+            max_bounces=props.max_bounces, diffuse_bounces=props.diffuse_bounces,
+            glossy_bounces=props.glossy_bounces, transmission_bounces=props.transmission_bounces,
+            transparent=render.film_transparent, border=border, tile_size=props.tile_size)
+        build_seconds = time.perf_counter() - build_start
+        self._renderer = renderer
+
+        # Blender's result covers the border only (cropped or not: it pastes
+        # an uncropped border into the full frame itself).
+        result = self.begin_result(0, 0, renderer.film_width, renderer.film_height,
+                                   layer=depsgraph.view_layer.name)
+        try:
+            if (result.resolution_x, result.resolution_y) != (renderer.film_width, renderer.film_height):
+                raise RuntimeError(f"render result is {result.resolution_x}x{result.resolution_y} pixels, "
+                                   f"expected {renderer.film_width}x{renderer.film_height}")
+            finished = renderer.render(self._progress_callback(renderer, result))
+            self._write_passes(result, renderer, names=None)
+        finally:
+            self.end_result(result)
+            self._renderer = None
+
+        stats = renderer.stats()
+        state = "finished" if finished else "cancelled"
+        print(f"Coherent: {state} {width}x{height}, {props.samples} spp, {nscene.triangle_count:,} triangles: "
+              f"export {exported.seconds:.2f} s, BVH {build_seconds:.2f} s, render {stats['seconds']:.2f} s, "
+              f"{stats['mrays_per_s']:.1f} Mrays/s")
+        if stats.get("nonfinite_samples"):
+            self._warn(f"{stats['nonfinite_samples']} samples were NaN/Inf and discarded")
+
+    def _progress_callback(self, renderer, result):
+        last_preview = [time.monotonic()]
+        last_done = [0]
+
+        def progress(p):
+            done, total, seconds = p["samples_done"], p["samples_total"], p["seconds"]
+            fraction = p["fraction"]
+            self.update_progress(fraction)
+            remaining = seconds * (1.0 - fraction) / fraction if fraction > 0.0 else 0.0
+            self.update_stats("", f"Sample {done}/{total} | {p['mrays_per_s']:.1f} Mrays/s | "
+                                  f"Time {_format_time(seconds)} | Remaining {_format_time(remaining)}")
+            # The film may only be read in the report that ends a pass (the
+            # first one with a new samples_done): progress reports within a
+            # pass run while worker threads are still adding samples.
+            pass_ended = done != last_done[0]
+            last_done[0] = done
+            now = time.monotonic()
+            if pass_ended and done < total and now - last_preview[0] >= PREVIEW_INTERVAL:
+                self._write_passes(result, renderer, names=("Combined",))
+                self.update_result(result)
+                last_preview[0] = time.monotonic()
+            return not self.test_break()
+
+        return progress
+
+    @staticmethod
+    def _write_passes(result, renderer, names):
+        for layer in result.layers:
+            for render_pass in layer.passes:
+                if render_pass.name not in _PASSES or (names is not None and render_pass.name not in names):
+                    continue
+                pixels = renderer.pass_pixels(render_pass.name)
+                if pixels.shape[1] != render_pass.channels:
+                    continue
+                # (pixels, channels) float32 in one call: no per-pixel Python.
+                render_pass.rect.foreach_set(pixels)

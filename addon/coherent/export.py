@@ -1,0 +1,359 @@
+# SPDX-License-Identifier: Apache-2.0
+"""Blender depsgraph to a native COHERENT scene.
+
+Geometry goes through numpy arrays filled by `foreach_get` (no Python loop over
+vertices or triangles). Triangle arrays are extracted once per mesh datablock
+and reused for every instance of it (linked duplicates, collection instances,
+Geometry Nodes instances); each instance only contributes its transform.
+
+Conventions: Blender is Z-up and right-handed, a camera looks down its local
+-Z axis with +Y up, lights point along their local -Z axis. Matrices are
+row-major (numpy's view of a mathutils.Matrix), which is what the native
+Transform expects.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+
+import numpy as np
+
+from . import materials
+
+# Object types that evaluate to a surface we can triangulate.
+_MESH_TYPES = {"MESH", "CURVE", "SURFACE", "FONT", "META"}
+# Object types with nothing to render for us (not worth a warning).
+_SILENT_TYPES = {"CAMERA", "EMPTY", "ARMATURE", "LATTICE", "SPEAKER", "LIGHT_PROBE", "GPENCIL"}
+
+
+class ExportError(RuntimeError):
+    """A problem that makes rendering impossible (e.g. no camera)."""
+
+
+class MeshArrays:
+    """Triangles of one mesh datablock in object space, ready for Scene.add_mesh."""
+
+    __slots__ = ("positions", "indices", "normals", "material_index", "max_material_index")
+
+    def __init__(self, positions, indices, normals, material_index):
+        self.positions = positions      # float32 (N, 3)
+        self.indices = indices          # int32 (M, 3)
+        self.normals = normals          # float32 (M, 3, 3) or None (flat shading)
+        self.material_index = material_index  # int32 (M,) or None when all zero
+        self.max_material_index = int(material_index.max()) if material_index is not None else 0
+
+    @property
+    def triangle_count(self):
+        return self.indices.shape[0]
+
+
+def mesh_arrays(mesh):
+    """Extracts triangles from a bpy Mesh with foreach_get; None if it has no faces."""
+    mesh.calc_loop_triangles()
+    tris = mesh.loop_triangles
+    m = len(tris)
+    if m == 0:
+        return None
+    n = len(mesh.vertices)
+    positions = np.empty(n * 3, dtype=np.float32)
+    mesh.vertices.foreach_get("co", positions)
+    indices = np.empty(m * 3, dtype=np.int32)
+    tris.foreach_get("vertices", indices)
+
+    # Per-triangle material indices only matter with several slots, and
+    # fetching them costs as much as the vertex indices: skip when possible.
+    material_index = None
+    if len(mesh.materials) > 1:
+        material_index = np.empty(m, dtype=np.int32)
+        tris.foreach_get("material_index", material_index)
+        if not material_index.any():
+            material_index = None
+
+    # Shading normals only where they differ from the geometric normal: a
+    # mesh with every face flat and no custom normals is rendered faceted.
+    normals = None
+    polys = mesh.polygons
+    smooth = np.empty(len(polys), dtype=bool)
+    polys.foreach_get("use_smooth", smooth)
+    if smooth.any() or mesh.has_custom_normals:
+        mesh.calc_normals_split()  # fills the loop normals that split_normals reads (Blender 3.x)
+        normals = np.empty(m * 9, dtype=np.float32)
+        tris.foreach_get("split_normals", normals)
+        normals = normals.reshape(m, 3, 3)
+
+    return MeshArrays(positions.reshape(n, 3), indices.reshape(m, 3), normals, material_index)
+
+
+def _original_pointer(ob):
+    original = ob.original
+    return (original if original is not None else ob).as_pointer()
+
+
+class ExportResult:
+    def __init__(self, scene):
+        self.scene = scene
+        self.warnings = []
+        self.seconds = 0.0
+        self.meshes = 0      # unique meshes extracted
+        self.instances = 0   # mesh instances added
+        self.lights = 0
+
+
+class SceneExporter:
+    """Converts one evaluated depsgraph into a native Scene."""
+
+    def __init__(self, native, depsgraph, width, height, camera_override=None, need_camera=True):
+        self.native = native
+        self.depsgraph = depsgraph
+        self.width = width
+        self.height = height
+        self.camera_override = camera_override
+        self.need_camera = need_camera  # False for viewports, which bring their own view
+        self.result = ExportResult(native.Scene())
+        self.materials = materials.MaterialConverter(self.result.scene, self.result.warnings)
+        self._mesh_cache = {}
+        self._unsupported_types = set()
+
+    def export(self, cancelled=lambda: False):
+        start = time.perf_counter()
+        depsgraph = self.depsgraph
+        bscene = depsgraph.scene  # evaluated scene
+        if self.need_camera:
+            self._export_camera(bscene)
+
+        # Since Blender 3.0 curves, text, surfaces and metaballs reach render
+        # engines as an extra MESH instance whose parent is the object itself.
+        # The object entry is kept aside and exported through to_mesh() only
+        # if no such instance showed up, so nothing is rendered twice.
+        pending = {}   # original object pointer -> (evaluated object, matrix)
+        covered = set()
+        for inst in depsgraph.object_instances:
+            if not getattr(inst, "show_self", True):
+                continue
+            ob = inst.object
+            kind = ob.type
+            if kind == "MESH":
+                if inst.is_instance and inst.parent is not None:
+                    covered.add(_original_pointer(inst.parent))
+                self._export_mesh_instance(inst, ob, np.array(inst.matrix_world, dtype=np.float32))
+            elif kind in _MESH_TYPES:
+                if not inst.is_instance:
+                    pending[_original_pointer(ob)] = (ob, np.array(inst.matrix_world, dtype=np.float32))
+            elif kind == "LIGHT":
+                self._export_light(ob, np.array(inst.matrix_world, dtype=np.float64))
+            elif kind not in _SILENT_TYPES and kind not in self._unsupported_types:
+                self._unsupported_types.add(kind)
+                self.result.warnings.append(f"objects of type {kind} are not supported and were skipped "
+                                            f"(first: '{ob.name}')")
+            if cancelled():
+                break
+        for key, (ob, matrix) in pending.items():
+            if key not in covered:
+                self._export_mesh_instance(None, ob, matrix)
+
+        self.result.scene.world_color = materials.world_color(bscene.world, self.result.warnings)
+        summary = self.result.scene.dropped_summary
+        if summary:
+            self.result.warnings.append(summary)
+        self.result.seconds = time.perf_counter() - start
+        return self.result
+
+    # -- geometry -------------------------------------------------------------
+
+    def _mesh_for(self, ob):
+        """Cached MeshArrays for this instance's geometry (None if empty)."""
+        data = ob.data
+        if ob.type == "MESH" and data is not None:
+            # The evaluated object's data already has modifiers applied and is
+            # shared by every instance of it: cache on the datablock.
+            key = ("MESH", data.as_pointer())
+        else:
+            # Curves/text/metaballs evaluate per object: cache per object
+            # (instances of the same object still share it).
+            key = (ob.type, ob.original.as_pointer() if ob.original is not None else ob.as_pointer(),
+                   data.as_pointer() if data is not None else 0)
+        if key in self._mesh_cache:
+            return self._mesh_cache[key]
+
+        arrays = None
+        if ob.type == "MESH" and data is not None and not data.is_editmode:
+            arrays = mesh_arrays(data)
+        else:
+            mesh = ob.to_mesh()
+            try:
+                if mesh is not None:
+                    arrays = mesh_arrays(mesh)
+            finally:
+                ob.to_mesh_clear()
+        self._mesh_cache[key] = arrays
+        if arrays is not None:
+            self.result.meshes += 1
+        return arrays
+
+    def _export_mesh_instance(self, inst, ob, matrix):
+        arrays = self._mesh_for(ob)
+        if arrays is None:
+            return
+        # Slot -> native material, resolved per instance: objects sharing a mesh
+        # may link different materials to their slots.
+        slots = [self.materials.index_of(slot.material) for slot in ob.material_slots]
+        if not slots and ob.data is not None and hasattr(ob.data, "materials"):
+            slots = [self.materials.index_of(m) for m in ob.data.materials]
+        material_ids = None
+        if len(slots) > 1 and arrays.material_index is not None:
+            material_ids = arrays.material_index
+            if arrays.max_material_index >= len(slots):
+                # Blender clamps out-of-range material indices to the last slot.
+                material_ids = np.minimum(material_ids, len(slots) - 1)
+        elif slots:
+            slots = slots[:1]
+
+        name = ob.name
+        if inst is not None and inst.is_instance and inst.parent is not None and inst.parent.name != ob.name:
+            name = f"{inst.parent.name}/{ob.name}"
+        self.result.scene.add_mesh(name, arrays.positions, arrays.indices, matrix,
+                                   normals=arrays.normals, material_ids=material_ids, material_slots=slots)
+        self.result.instances += 1
+
+    # -- lights -----------------------------------------------------------------
+
+    def _export_light(self, ob, matrix):
+        light = ob.data
+        if light.energy <= 0.0 or max(light.color) <= 0.0:
+            return
+        position = matrix[:3, 3]
+        x_axis, y_axis, z_axis = matrix[:3, 0], matrix[:3, 1], matrix[:3, 2]
+        direction = -z_axis  # lights shine along local -Z
+        if np.linalg.norm(direction) < 1e-12:
+            self.result.warnings.append(f"light '{ob.name}' has zero scale and was skipped")
+            return
+        args = dict(color=tuple(light.color), power=float(light.energy), position=tuple(position),
+                    direction=tuple(direction))
+        kind = light.type
+        if kind in ("POINT", "SPOT"):
+            args["radius"] = float(light.shadow_soft_size)
+            if kind == "SPOT":
+                args["spot_size"] = float(light.spot_size)
+                args["spot_blend"] = float(light.spot_blend)
+        elif kind == "SUN":
+            args["sun_angle"] = float(light.angle)
+        elif kind == "AREA":
+            # Object scale stretches the emitter: sizes along the scaled axes.
+            su, sv = float(np.linalg.norm(x_axis)), float(np.linalg.norm(y_axis))
+            if su < 1e-12 or sv < 1e-12:
+                self.result.warnings.append(f"area light '{ob.name}' has zero scale and was skipped")
+                return
+            shape = light.shape
+            size_u = float(light.size) * su
+            size_v = (float(light.size) if shape in ("SQUARE", "DISK") else float(light.size_y)) * sv
+            if shape == "SQUARE" and abs(size_u - size_v) > 1e-6 * max(size_u, size_v):
+                shape = "RECTANGLE"
+            elif shape == "DISK" and abs(size_u - size_v) > 1e-6 * max(size_u, size_v):
+                shape = "ELLIPSE"
+            args.update(shape=shape, size_u=size_u, size_v=size_v,
+                        axis_u=tuple(x_axis / su), axis_v=tuple(y_axis / sv))
+        else:
+            self.result.warnings.append(f"light '{ob.name}' of type {kind} is not supported and was skipped")
+            return
+        self.result.scene.add_light(kind, **args)
+        self.result.lights += 1
+
+    # -- camera -------------------------------------------------------------------
+
+    def _export_camera(self, bscene):
+        cam_ob = self.camera_override or bscene.camera
+        if cam_ob is None:
+            raise ExportError(f"scene '{bscene.name}' has no active camera: add a camera and make it active "
+                              f"(Scene Properties > Camera)")
+        cam_ob = cam_ob.evaluated_get(self.depsgraph)
+        if cam_ob.type != "CAMERA":
+            raise ExportError(f"the active camera '{cam_ob.name}' is a {cam_ob.type} object, not a camera")
+        self.result.scene.set_camera(**camera_parameters(cam_ob, bscene.render, self.width, self.height,
+                                                          self.result.warnings))
+
+
+def camera_parameters(cam_ob, render, width, height, warnings=None):
+    """Keyword arguments of Scene.set_camera for a Blender camera object.
+
+    Follows Cycles (intern/cycles/blender/camera.cpp): the sensor is fitted to
+    the horizontal or vertical image extent (AUTO: the larger one), shift is in
+    units of the fitted extent, and the depth-of-field aperture radius is
+    lens / (2 f-number) with the lens in metres.
+    """
+    cam = cam_ob.data
+    m = np.array(cam_ob.matrix_world, dtype=np.float64)
+    right, up, back = m[:3, 0], m[:3, 1], m[:3, 2]
+    position = m[:3, 3]
+
+    xratio = float(width) * render.pixel_aspect_x
+    yratio = float(height) * render.pixel_aspect_y
+    fit = cam.sensor_fit
+    if fit == "AUTO":
+        horizontal = xratio >= yratio
+        sensor = cam.sensor_width
+    elif fit == "HORIZONTAL":
+        horizontal, sensor = True, cam.sensor_width
+    else:
+        horizontal, sensor = False, cam.sensor_height
+
+    if cam.type == "ORTHO":
+        fitted_half = 0.5 * cam.ortho_scale  # world units
+    else:
+        if cam.type == "PANO" and warnings is not None:
+            warnings.append(f"panoramic camera '{cam_ob.name}' is not supported: rendered as perspective")
+        fitted_half = 0.5 * sensor / cam.lens  # tan(fov / 2)
+    if horizontal:
+        half_width, half_height = fitted_half, fitted_half * yratio / xratio
+    else:
+        half_width, half_height = fitted_half * xratio / yratio, fitted_half
+
+    # Blender's shift is a fraction of the fitted extent; the native camera
+    # measures it in units of the larger extent.
+    larger = max(half_width, half_height)
+    shift_scale = fitted_half / larger
+
+    aperture_radius, focus_distance = 0.0, 10.0
+    if cam.dof.use_dof:
+        fstop = max(cam.dof.aperture_fstop, 1e-5)
+        if cam.type == "ORTHO":
+            aperture_radius = 1.0 / (2.0 * fstop)
+        else:
+            aperture_radius = (cam.lens * 1e-3) / (2.0 * fstop)
+        focus_distance = camera_focus_distance(cam_ob)
+        if not (focus_distance > 0.0):
+            focus_distance = 1e-3
+
+    return dict(
+        projection="ORTHO" if cam.type == "ORTHO" else "PERSP",
+        position=tuple(position), forward=tuple(-back), up=tuple(up), right=tuple(right),
+        half_width=half_width, half_height=half_height,
+        shift_x=cam.shift_x * shift_scale, shift_y=cam.shift_y * shift_scale,
+        clip_start=max(cam.clip_start, 0.0), clip_end=max(cam.clip_end, cam.clip_start + 1e-6),
+        aperture_radius=aperture_radius, focus_distance=focus_distance,
+    )
+
+
+def camera_focus_distance(cam_ob):
+    """Focus distance: along the view axis to the focus object's origin, else the typed distance."""
+    dof = cam_ob.data.dof
+    target = dof.focus_object
+    if target is None:
+        return float(dof.focus_distance)
+    cm = np.array(cam_ob.matrix_world, dtype=np.float64)
+    tm = np.array(target.matrix_world, dtype=np.float64)
+    view = cm[:3, 2]
+    norm = np.linalg.norm(view)
+    if norm < 1e-12:
+        return float(dof.focus_distance)
+    return float(abs(np.dot(view / norm, cm[:3, 3] - tm[:3, 3])))
+
+
+def export_scene(native, depsgraph, width, height, camera_override=None, cancelled=lambda: False,
+                 need_camera=True):
+    """Exports the evaluated depsgraph; returns an ExportResult (scene, warnings, counts, seconds).
+
+    width/height (pixels) only serve the camera's sensor fit; with
+    need_camera=False the scene camera is ignored (viewports).
+    """
+    return SceneExporter(native, depsgraph, width, height, camera_override, need_camera).export(cancelled)

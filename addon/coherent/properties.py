@@ -1,0 +1,69 @@
+# SPDX-License-Identifier: Apache-2.0
+"""Render settings stored in the .blend file: `scene.coherent`."""
+
+from __future__ import annotations
+
+import bpy
+from bpy.props import BoolProperty, IntProperty, PointerProperty
+
+
+class CoherentRenderSettings(bpy.types.PropertyGroup):
+    samples: IntProperty(
+        name="Samples", description="Samples per pixel for final renders",
+        default=64, min=1, max=1 << 24, soft_max=4096)
+    preview_samples: IntProperty(
+        name="Viewport Samples", description="Samples per pixel for viewport renders",
+        default=16, min=1, max=1 << 24, soft_max=1024)
+    seed: IntProperty(
+        name="Seed", description="Seed of the sample sequences; renders with equal seeds are identical",
+        default=0, min=0)
+    use_animated_seed: BoolProperty(
+        name="Animated Seed", description="Combine the seed with the frame number so noise changes per frame",
+        default=False)
+
+    max_bounces: IntProperty(
+        name="Total", description="Maximum number of bounces of any kind",
+        default=12, min=0, max=1024)
+    diffuse_bounces: IntProperty(
+        name="Diffuse", description="Maximum number of diffuse reflection bounces",
+        default=4, min=0, max=1024)
+    glossy_bounces: IntProperty(
+        name="Glossy", description="Maximum number of glossy reflection bounces",
+        default=4, min=0, max=1024)
+    transmission_bounces: IntProperty(
+        name="Transmission", description="Maximum number of transmission (refraction) bounces",
+        default=12, min=0, max=1024)
+
+    threads: IntProperty(
+        name="Threads", description="Render threads; 0 uses Blender's Performance > Threads setting "
+                                    "(all cores when set to Auto-Detect)",
+        default=0, min=0, max=1024)
+    tile_size: IntProperty(
+        name="Tile Size", description="Edge length in pixels of the image tiles threads work on",
+        default=32, min=4, max=1024)
+
+    def seed_for_frame(self, frame):
+        """The sampler seed for `frame`: constant unless use_animated_seed."""
+        if not self.use_animated_seed:
+            return self.seed
+        # Cycles' hash_uint2(frame, seed) role: decorrelate consecutive frames.
+        h = (self.seed * 0x9E3779B1 + (frame & 0xFFFFFFFF) * 0x85EBCA77) & 0xFFFFFFFFFFFFFFFF
+        h ^= h >> 29
+        return h
+
+
+classes = (CoherentRenderSettings,)
+
+
+def register():
+    for cls in classes:
+        bpy.utils.register_class(cls)
+    bpy.types.Scene.coherent = PointerProperty(
+        name="Coherent Render Settings", description="Coherent render settings", type=CoherentRenderSettings)
+
+
+def unregister():
+    if hasattr(bpy.types.Scene, "coherent"):
+        del bpy.types.Scene.coherent
+    for cls in reversed(classes):
+        bpy.utils.unregister_class(cls)

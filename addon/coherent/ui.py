@@ -1,0 +1,222 @@
+# SPDX-License-Identifier: Apache-2.0
+"""Properties-editor panels for the Coherent engine.
+
+Our own panels (sampling, light paths, film, performance, light, passes) are
+shown only when Coherent is the active engine. Blender's generic panels
+(output, format, camera, material and world node surfaces, ...) are made
+visible for Coherent by adding 'COHERENT' to their COMPAT_ENGINES, the same
+mechanism Cycles uses; unregister() removes exactly what register() added.
+"""
+
+from __future__ import annotations
+
+import bpy
+
+ENGINE = "COHERENT"
+
+
+class CoherentButtonsPanel:
+    bl_space_type = "PROPERTIES"
+    bl_region_type = "WINDOW"
+    COMPAT_ENGINES = {ENGINE}
+
+    @classmethod
+    def poll(cls, context):
+        return context.engine in cls.COMPAT_ENGINES
+
+
+# --- Render properties ----------------------------------------------------------
+
+
+class RENDER_PT_coherent_sampling(CoherentButtonsPanel, bpy.types.Panel):
+    bl_label = "Sampling"
+    bl_context = "render"
+
+    def draw(self, context):
+        layout = self.layout
+        layout.use_property_split = True
+        layout.use_property_decorate = False
+        props = context.scene.coherent
+        col = layout.column(align=True)
+        col.prop(props, "samples", text="Render")
+        col.prop(props, "preview_samples", text="Viewport")
+        col = layout.column()
+        row = col.row(align=True)
+        row.prop(props, "seed")
+        row.prop(props, "use_animated_seed", text="", icon="TIME")
+
+
+class RENDER_PT_coherent_light_paths(CoherentButtonsPanel, bpy.types.Panel):
+    bl_label = "Light Paths"
+    bl_context = "render"
+
+    def draw(self, context):
+        layout = self.layout
+        layout.use_property_split = True
+        layout.use_property_decorate = False
+        props = context.scene.coherent
+        col = layout.column(heading="Max Bounces", align=True)
+        col.prop(props, "max_bounces", text="Total")
+        col.prop(props, "diffuse_bounces", text="Diffuse")
+        col.prop(props, "glossy_bounces", text="Glossy")
+        col.prop(props, "transmission_bounces", text="Transmission")
+
+
+class RENDER_PT_coherent_film(CoherentButtonsPanel, bpy.types.Panel):
+    bl_label = "Film"
+    bl_context = "render"
+    bl_options = {"DEFAULT_CLOSED"}
+
+    def draw(self, context):
+        layout = self.layout
+        layout.use_property_split = True
+        layout.use_property_decorate = False
+        layout.prop(context.scene.render, "film_transparent", text="Transparent")
+
+
+class RENDER_PT_coherent_performance(CoherentButtonsPanel, bpy.types.Panel):
+    bl_label = "Performance"
+    bl_context = "render"
+    bl_options = {"DEFAULT_CLOSED"}
+
+    def draw(self, context):
+        layout = self.layout
+        layout.use_property_split = True
+        layout.use_property_decorate = False
+        rd = context.scene.render
+        props = context.scene.coherent
+        col = layout.column(heading="Threads")
+        col.prop(props, "threads", text="Coherent Threads")
+        sub = col.column()
+        sub.active = props.threads == 0
+        sub.prop(rd, "threads_mode")
+        sub2 = sub.column()
+        sub2.enabled = rd.threads_mode == "FIXED"
+        sub2.prop(rd, "threads")
+        layout.prop(props, "tile_size")
+
+
+# --- Light properties -----------------------------------------------------------
+
+
+class DATA_PT_coherent_light(CoherentButtonsPanel, bpy.types.Panel):
+    bl_label = "Light"
+    bl_context = "data"
+
+    @classmethod
+    def poll(cls, context):
+        return context.light is not None and super().poll(context)
+
+    def draw(self, context):
+        layout = self.layout
+        light = context.light
+        layout.row().prop(light, "type", expand=True)
+        layout.use_property_split = True
+        layout.use_property_decorate = False
+
+        col = layout.column()
+        col.prop(light, "color")
+        col.prop(light, "energy", text="Strength" if light.type == "SUN" else "Power")
+        col.separator()
+        if light.type in {"POINT", "SPOT"}:
+            col.prop(light, "shadow_soft_size", text="Radius")
+        elif light.type == "SUN":
+            col.prop(light, "angle")
+        elif light.type == "AREA":
+            col.prop(light, "shape")
+            sub = col.column(align=True)
+            if light.shape in {"SQUARE", "DISK"}:
+                sub.prop(light, "size")
+            else:
+                sub.prop(light, "size", text="Size X")
+                sub.prop(light, "size_y", text="Y")
+        if light.type == "SPOT":
+            col.separator()
+            col.prop(light, "spot_size", text="Spot Size")
+            col.prop(light, "spot_blend", text="Blend", slider=True)
+            col.prop(light, "show_cone")
+
+
+# --- View layer properties --------------------------------------------------------
+
+
+class VIEWLAYER_PT_coherent_passes(CoherentButtonsPanel, bpy.types.Panel):
+    bl_label = "Passes"
+    bl_context = "view_layer"
+
+    def draw(self, context):
+        layout = self.layout
+        layout.use_property_split = True
+        layout.use_property_decorate = False
+        view_layer = context.view_layer
+        col = layout.column(heading="Include", align=True)
+        col.prop(view_layer, "use_pass_combined")
+        col.prop(view_layer, "use_pass_z")
+        col.prop(view_layer, "use_pass_normal")
+
+
+classes = (
+    RENDER_PT_coherent_sampling,
+    RENDER_PT_coherent_light_paths,
+    RENDER_PT_coherent_film,
+    RENDER_PT_coherent_performance,
+    DATA_PT_coherent_light,
+    VIEWLAYER_PT_coherent_passes,
+)
+
+
+# --- Blender's own panels ---------------------------------------------------------
+
+# Panels of Blender's generic ('BLENDER_RENDER') set that show settings we do
+# not use or that our panels replace.
+_EXCLUDED_PANELS = {
+    "DATA_PT_area",           # in DATA_PT_coherent_light
+    "DATA_PT_falloff_curve",  # legacy falloff, not supported
+    "DATA_PT_light",          # replaced by DATA_PT_coherent_light
+    "DATA_PT_preview",        # no preview renders
+    "DATA_PT_spot",           # child of the EEVEE light panel; in DATA_PT_coherent_light
+    "MATERIAL_PT_preview",
+    "NODE_DATA_PT_light",
+    "VIEWLAYER_PT_filter",
+    "VIEWLAYER_PT_layer_passes",
+}
+
+# Panels of other engines that edit exactly what we read: the node-based
+# material and world surfaces (so the Principled BSDF can be edited in the
+# Properties editor) and the camera's depth of field.
+_EXTRA_PANELS = {
+    "EEVEE_MATERIAL_PT_context_material",
+    "EEVEE_MATERIAL_PT_surface",
+    "EEVEE_WORLD_PT_surface",
+    "DATA_PT_camera_dof",
+    "DATA_PT_camera_dof_aperture",
+}
+
+_patched_panels = []  # panels whose COMPAT_ENGINES we extended
+
+
+def _blender_panels():
+    panels = []
+    for panel in bpy.types.Panel.__subclasses__():
+        engines = getattr(panel, "COMPAT_ENGINES", None)
+        if engines is None or panel.__name__ in _EXCLUDED_PANELS:
+            continue
+        if "BLENDER_RENDER" in engines or panel.__name__ in _EXTRA_PANELS:
+            panels.append(panel)
+    return panels
+
+
+def register():
+    for cls in classes:
+        bpy.utils.register_class(cls)
+    for panel in _blender_panels():
+        if ENGINE not in panel.COMPAT_ENGINES:
+            panel.COMPAT_ENGINES.add(ENGINE)
+            _patched_panels.append(panel)
+
+
+def unregister():
+    while _patched_panels:
+        _patched_panels.pop().COMPAT_ENGINES.discard(ENGINE)
+    for cls in reversed(classes):
+        bpy.utils.unregister_class(cls)

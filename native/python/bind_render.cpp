@@ -1,0 +1,371 @@
+// Python bindings of the renderer: Renderer(scene, **settings).render(progress),
+// cancel(), pass_pixels(), stats().
+//
+// Threading model: render() releases the GIL for the whole render and takes
+// it back only to call the Python progress callback (on the thread that called
+// render(), between or within sample passes). cancel() only flips an atomic,
+// so it can be called from any Python thread while render() runs.
+#include <algorithm>
+#include <cmath>
+#include <exception>
+#include <mutex>
+#include <optional>
+#include <thread>
+#include <vector>
+
+#include "bindings.h"
+#include "render/renderer.h"
+
+namespace coherent::python {
+
+namespace {
+
+// Blender writes 1e10 where the Depth pass saw nothing (Cycles does the same);
+// the film stores +inf there, which the compositor cannot handle.
+constexpr float kBlenderNoDepth = 1e10f;
+
+PassType pass_from_name(const std::string& name) {
+    for (PassType t : {PassType::Combined, PassType::Depth, PassType::Normal})
+        if (name == pass_info(t).name) return t;
+    if (name == "Z") return PassType::Depth;  // Blender < 2.92 name of the depth pass
+    throw py::value_error("pass_pixels: unknown pass '" + name + "' (expected 'Combined', 'Depth' or 'Normal')");
+}
+
+class PyRenderer {
+public:
+    PyRenderer(std::shared_ptr<PyScene> scene, const RenderSettings& settings) : scene_(std::move(scene)) {
+        scene_->ensure_finalized();
+        // Claim the scene before building: it must not change under the BVH.
+        scene_->active_renderers.fetch_add(1);
+        try {
+            py::gil_scoped_release unlocked;  // the BVH build takes time
+            renderer_ = std::make_unique<Renderer>(scene_->scene, settings);
+        } catch (...) {
+            scene_->active_renderers.fetch_sub(1);
+            throw;
+        }
+        settings_ = settings;
+    }
+
+    ~PyRenderer() {
+        if (worker_.joinable()) {
+            renderer_->cancel();
+            py::gil_scoped_release unlocked;  // the worker never needs the GIL, but don't hold it while waiting
+            worker_.join();
+        }
+        renderer_.reset();
+        scene_->active_renderers.fetch_sub(1);
+    }
+
+    bool render(const py::object& progress) {
+        join_finished_worker();
+        if (rendering_.exchange(true)) throw std::runtime_error("Renderer.render: already rendering");
+        struct Reset {
+            std::atomic<bool>& flag;
+            ~Reset() { flag.store(false); }
+        } reset{rendering_};
+
+        // An exception raised by the callback is kept here (created and
+        // destroyed only while holding the GIL) and re-raised once the
+        // render has stopped, so the caller sees the real Python error.
+        std::optional<py::error_already_set> error;
+        bool finished;
+        {
+            py::gil_scoped_release unlocked;
+            finished = renderer_->render([&](const Progress& p) -> bool {
+                py::gil_scoped_acquire locked;
+                if (PyErr_CheckSignals() != 0) {  // Ctrl-C in a plain Python session
+                    error.emplace();
+                    return false;
+                }
+                if (progress.is_none()) return true;
+                try {
+                    return py::bool_(progress(progress_dict(p))).cast<bool>();
+                } catch (py::error_already_set& e) {
+                    error.emplace(std::move(e));
+                    return false;
+                }
+            });
+        }
+        if (error) throw *error;
+        return finished;
+    }
+
+    // --- asynchronous rendering (viewport) ---------------------------------
+    //
+    // start() renders on a native thread that never touches Python. After
+    // every completed sample pass it resolves the Combined pass into a
+    // snapshot buffer under a mutex (the film is only consistent between
+    // passes); Python polls snapshot()/progress() from any thread.
+    void start() {
+        join_finished_worker();
+        if (rendering_.exchange(true)) throw std::runtime_error("Renderer.start: already rendering");
+        {
+            std::lock_guard<std::mutex> lock(async_mutex_);
+            async_running_ = true;
+            async_error_.clear();
+            async_progress_ = Progress{};
+            async_progress_.samples_total = settings_.spp;
+        }
+        worker_ = std::thread([this] {
+            int last_done = -1;
+            try {
+                renderer_->render([&](const Progress& p) {
+                    // A new samples_done value only appears in the report at the
+                    // end of a pass: the only moment the film may be read.
+                    if (p.samples_done != last_done) {
+                        last_done = p.samples_done;
+                        const Film& film = renderer_->film();
+                        std::vector<float> pixels(size_t(film.width()) * film.height() * 4);
+                        film.resolve_into(PassType::Combined, pixels.data());
+                        std::lock_guard<std::mutex> lock(async_mutex_);
+                        snapshot_.swap(pixels);
+                        snapshot_samples_ = p.samples_done;
+                    }
+                    std::lock_guard<std::mutex> lock(async_mutex_);
+                    async_progress_ = p;
+                    async_progress_.stats = nullptr;  // not valid outside the callback
+                    async_rays_ = p.stats ? p.stats->total_rays() : 0;
+                    return true;  // cancellation goes through Renderer::cancel()
+                });
+            } catch (const std::exception& e) {
+                std::lock_guard<std::mutex> lock(async_mutex_);
+                async_error_ = e.what();
+            } catch (...) {
+                std::lock_guard<std::mutex> lock(async_mutex_);
+                async_error_ = "unknown native error";
+            }
+            std::lock_guard<std::mutex> lock(async_mutex_);
+            async_running_ = false;
+            rendering_.store(false);
+        });
+    }
+
+    bool running() const {
+        std::lock_guard<std::mutex> lock(async_mutex_);
+        return async_running_;
+    }
+
+    // Waits for start()'s render to end; returns False if it was cancelled.
+    bool wait() {
+        if (worker_.joinable()) {
+            py::gil_scoped_release unlocked;
+            worker_.join();
+        }
+        std::lock_guard<std::mutex> lock(async_mutex_);
+        if (!async_error_.empty()) throw std::runtime_error("Renderer: " + async_error_);
+        return !renderer_->cancelled();
+    }
+
+    py::dict async_progress() const {
+        std::lock_guard<std::mutex> lock(async_mutex_);
+        py::dict d = progress_dict(async_progress_);
+        d["rays"] = async_rays_;
+        d["mrays_per_s"] = async_progress_.seconds > 0.0 ? double(async_rays_) / async_progress_.seconds * 1e-6 : 0.0;
+        d["running"] = async_running_;
+        d["error"] = async_error_;
+        return d;
+    }
+
+    // (samples, float32 (H*W, 4) Combined) of the latest completed pass, or (0, None).
+    py::tuple snapshot(bool flip_y) const {
+        std::lock_guard<std::mutex> lock(async_mutex_);
+        if (snapshot_.empty()) return py::make_tuple(0, py::none());
+        const Film& film = renderer_->film();
+        const py::ssize_t w = film.width(), h = film.height();
+        py::array_t<float> out({w * h, py::ssize_t(4)});
+        float* data = out.mutable_data();
+        const py::ssize_t row = w * 4;
+        for (py::ssize_t y = 0; y < h; ++y) {
+            const py::ssize_t src = flip_y ? h - 1 - y : y;
+            std::copy_n(snapshot_.data() + src * row, row, data + y * row);
+        }
+        return py::make_tuple(snapshot_samples_, out);
+    }
+
+    void cancel() { renderer_->cancel(); }
+    bool cancelled() const { return renderer_->cancelled(); }
+
+    py::array_t<float> pass_pixels(const std::string& name, bool flip_y) const {
+        if (running())
+            throw std::runtime_error("Renderer.pass_pixels: an asynchronous render is running; use snapshot() "
+                                     "or wait() first");
+        const PassType type = pass_from_name(name);
+        const Film& film = renderer_->film();
+        const py::ssize_t w = film.width(), h = film.height(), c = pass_info(type).channels;
+        py::array_t<float> out({w * h, c});
+        float* data = out.mutable_data();
+        film.resolve_into(type, data);
+        if (flip_y) {
+            // Film row 0 is the top row; Blender's pixel buffers start at the bottom.
+            const py::ssize_t row = w * c;
+            for (py::ssize_t y = 0; y < h / 2; ++y)
+                std::swap_ranges(data + y * row, data + (y + 1) * row, data + (h - 1 - y) * row);
+        }
+        if (type == PassType::Depth)
+            std::replace_if(data, data + w * h * c, [](float v) { return !std::isfinite(v); }, kBlenderNoDepth);
+        return out;
+    }
+
+    py::dict stats() const { return stats_dict(renderer_->stats()); }
+    py::dict bvh_stats() const {
+        const BvhBuildStats& b = renderer_->bvh().build_stats();
+        py::dict d;
+        d["seconds"] = b.seconds;
+        d["nodes"] = b.nodes;
+        d["leaves"] = b.leaves;
+        d["bytes"] = b.bytes;
+        d["depth"] = b.depth;
+        return d;
+    }
+    std::vector<std::string> features() const { return renderer_->active_features().names(); }
+    const RenderSettings& settings() const { return settings_; }
+    const Film& film() const { return renderer_->film(); }
+
+private:
+    static py::dict progress_dict(const Progress& p) {
+        py::dict d;
+        d["samples_done"] = p.samples_done;
+        d["samples_total"] = p.samples_total;
+        d["fraction"] = p.fraction;
+        d["seconds"] = p.seconds;
+        const uint64_t rays = p.stats ? p.stats->total_rays() : 0;
+        d["rays"] = rays;
+        d["mrays_per_s"] = p.seconds > 0.0 ? double(rays) / p.seconds * 1e-6 : 0.0;
+        return d;
+    }
+
+    static py::dict stats_dict(const RenderStats& s) {
+        py::dict d;
+        py::dict rays;
+        for (size_t i = 0; i < size_t(RayType::Count); ++i) rays[ray_type_name(RayType(i))] = s.rays[i];
+        d["rays"] = rays;
+        d["total_rays"] = s.total_rays();
+        d["samples"] = s.samples;
+        d["seconds"] = s.seconds;
+        d["mrays_per_s"] = s.seconds > 0.0 ? double(s.total_rays()) / s.seconds * 1e-6 : 0.0;
+        d["nonfinite_samples"] = s.nonfinite_samples;
+        py::dict t;
+        t["rays"] = s.traversal.rays;
+        t["node_visits"] = s.traversal.node_visits;
+        t["box_tests"] = s.traversal.box_tests;
+        t["triangle_tests"] = s.traversal.triangle_tests;
+        const double n = s.traversal.rays ? double(s.traversal.rays) : 1.0;
+        t["box_tests_per_ray"] = double(s.traversal.box_tests) / n;
+        t["triangle_tests_per_ray"] = double(s.traversal.triangle_tests) / n;
+        d["traversal"] = t;
+        return d;
+    }
+
+    // A finished start() leaves a joinable thread behind; reap it.
+    void join_finished_worker() {
+        if (worker_.joinable() && !running()) worker_.join();
+    }
+
+    std::shared_ptr<PyScene> scene_;  // keeps the scene alive as long as this renderer
+    std::unique_ptr<Renderer> renderer_;
+    RenderSettings settings_;
+    std::atomic<bool> rendering_{false};  // a render (sync or async) is in progress
+
+    std::thread worker_;  // start()'s render thread
+    mutable std::mutex async_mutex_;  // guards everything below
+    bool async_running_ = false;
+    std::string async_error_;
+    Progress async_progress_;
+    uint64_t async_rays_ = 0;
+    std::vector<float> snapshot_;  // Combined, top row first
+    int snapshot_samples_ = 0;
+};
+
+int checked_int(int v, int lo, int hi, const char* arg) {
+    if (v < lo || v > hi)
+        throw py::value_error(std::string(arg) + ": must be in [" + std::to_string(lo) + ", " + std::to_string(hi) +
+                              "], got " + std::to_string(v));
+    return v;
+}
+
+std::unique_ptr<PyRenderer> make_renderer(std::shared_ptr<PyScene> scene, int width, int height, int spp,
+                                          unsigned long long seed, int threads, int max_bounces,
+                                          int diffuse_bounces, int glossy_bounces, int transmission_bounces,
+                                          int rr_min_bounces, bool transparent, const py::object& border,
+                                          int tile_size, bool force_all_features) {
+    if (!scene) throw py::type_error("scene: expected a coherent Scene, got None");
+    constexpr int kMaxSize = 1 << 16;
+    RenderSettings s;
+    s.width = checked_int(width, 1, kMaxSize, "width");
+    s.height = checked_int(height, 1, kMaxSize, "height");
+    s.spp = checked_int(spp, 1, 1 << 24, "spp");
+    s.seed = seed;
+    s.threads = checked_int(threads, 0, 4096, "threads");
+    s.max_bounces = checked_int(max_bounces, 0, 1024, "max_bounces");
+    s.diffuse_bounces = checked_int(diffuse_bounces, 0, 1024, "diffuse_bounces");
+    s.glossy_bounces = checked_int(glossy_bounces, 0, 1024, "glossy_bounces");
+    s.transmission_bounces = checked_int(transmission_bounces, 0, 1024, "transmission_bounces");
+    s.rr_min_bounces = checked_int(rr_min_bounces, 0, 1024, "rr_min_bounces");
+    s.transparent_film = transparent;
+    s.tile_size = checked_int(tile_size, 1, 4096, "tile_size");
+    s.force_all_features = force_all_features;
+    if (!border.is_none()) {
+        const auto b = border.cast<std::vector<int>>();
+        if (b.size() != 4) throw py::value_error("border: expected (x0, y0, x1, y1) in pixels");
+        if (b[0] < 0 || b[1] < 0 || b[2] > s.width || b[3] > s.height || b[0] >= b[2] || b[1] >= b[3])
+            throw py::value_error("border: expected 0 <= x0 < x1 <= width and 0 <= y0 < y1 <= height (y = 0 at the top), got (" +
+                                  std::to_string(b[0]) + ", " + std::to_string(b[1]) + ", " + std::to_string(b[2]) +
+                                  ", " + std::to_string(b[3]) + ")");
+        s.border_x0 = b[0];
+        s.border_y0 = b[1];
+        s.border_x1 = b[2];
+        s.border_y1 = b[3];
+    }
+    return std::make_unique<PyRenderer>(std::move(scene), s);
+}
+
+}  // namespace
+
+void bind_render(py::module_& m) {
+    py::class_<PyRenderer>(m, "Renderer", R"doc(
+Renders a Scene. Construction builds the BVH (the GIL is released). The scene
+is kept alive and read-only while the Renderer exists.
+
+border=(x0, y0, x1, y1) in pixels, y = 0 at the TOP row, x1/y1 exclusive: the
+film (and every pass) then covers only that region.
+)doc")
+        .def(py::init(&make_renderer), py::arg("scene"), py::kw_only(), py::arg("width") = 512,
+             py::arg("height") = 512, py::arg("spp") = 16, py::arg("seed") = 0, py::arg("threads") = 0,
+             py::arg("max_bounces") = 12, py::arg("diffuse_bounces") = 4, py::arg("glossy_bounces") = 4,
+             py::arg("transmission_bounces") = 12, py::arg("rr_min_bounces") = 3, py::arg("transparent") = false,
+             py::arg("border") = py::none(), py::arg("tile_size") = 32, py::arg("force_all_features") = false)
+        .def("render", &PyRenderer::render, py::arg("progress") = py::none(), R"doc(
+Renders all samples; returns False if cancelled. `progress(dict)` is called
+after every sample pass (and periodically within long passes) with keys
+samples_done, samples_total, fraction, seconds, rays, mrays_per_s; a falsy
+return value cancels. An exception raised by the callback cancels the render
+and is re-raised when render() returns.)doc")
+        .def("start", &PyRenderer::start, R"doc(
+Starts rendering on a native background thread and returns at once (for
+interactive viewports). Poll progress()/snapshot(); wait() joins. The thread
+never calls into Python.)doc")
+        .def("wait", &PyRenderer::wait, "Waits for start()'s render; returns False if cancelled.")
+        .def_property_readonly("running", &PyRenderer::running, "True while start()'s render runs.")
+        .def("progress", &PyRenderer::async_progress, "Progress of start()'s render as a dict (adds running, error).")
+        .def("snapshot", &PyRenderer::snapshot, py::arg("flip_y") = true, R"doc(
+(samples, pixels) of start()'s render: the Combined pass as of the latest
+completed sample pass, float32 (film_height*film_width, 4), or (0, None)
+before the first pass completes.)doc")
+        .def("cancel", &PyRenderer::cancel, "Requests cancellation; safe from any thread.")
+        .def_property_readonly("cancelled", &PyRenderer::cancelled)
+        .def("pass_pixels", &PyRenderer::pass_pixels, py::arg("name"), py::arg("flip_y") = true, R"doc(
+The resolved pass as a new float32 array of shape (film_height*film_width,
+channels): 'Combined' (RGBA), 'Depth' (1; 1e10 where nothing was hit) or
+'Normal' (XYZ). flip_y=True orders rows bottom-up as Blender expects.)doc")
+        .def("stats", &PyRenderer::stats, "Render statistics: rays per type, traversal counters, time.")
+        .def("bvh_stats", &PyRenderer::bvh_stats, "BVH build statistics.")
+        .def_property_readonly("features", &PyRenderer::features, "Features the kernels were specialised for.")
+        .def_property_readonly("width", [](const PyRenderer& r) { return r.settings().width; })
+        .def_property_readonly("height", [](const PyRenderer& r) { return r.settings().height; })
+        .def_property_readonly("film_width", [](const PyRenderer& r) { return r.film().width(); })
+        .def_property_readonly("film_height", [](const PyRenderer& r) { return r.film().height(); })
+        .def_property_readonly("spp", [](const PyRenderer& r) { return r.settings().spp; });
+}
+
+}  // namespace coherent::python

@@ -1,0 +1,485 @@
+// Python bindings of the scene layer: Scene.add_mesh / add_material /
+// add_light / set_camera / world_color / finalize.
+//
+// Array policy (applies to every numpy argument): strict on ndim and shape,
+// lenient on dtype and memory layout. Float arrays accept any real dtype and
+// are converted to float32 (copied only when needed); index arrays must have
+// an integer dtype (a float index array is a TypeError, because silently
+// truncating 2.7 to 2 hides exporter bugs) and are converted to uint32 with
+// out-of-range values mapped to an index the scene validation then drops.
+#include <cmath>
+#include <cstring>
+#include <limits>
+#include <sstream>
+#include <vector>
+
+#include "bindings.h"
+
+namespace coherent::python {
+
+namespace {
+
+using FloatArray = py::array_t<float, py::array::c_style | py::array::forcecast>;
+
+std::string shape_string(const py::array& a) {
+    std::ostringstream s;
+    s << "(";
+    for (py::ssize_t i = 0; i < a.ndim(); ++i) s << (i ? ", " : "") << a.shape(i);
+    s << (a.ndim() == 1 ? ",)" : ")");
+    return s.str();
+}
+
+std::string dtype_string(const py::array& a) { return py::str(a.dtype()).cast<std::string>(); }
+
+// Converts `obj` to a numpy array without copying when it already is one.
+py::array as_array(const py::handle& obj, const char* arg, const char* expected) {
+    if (obj.is_none()) throw py::type_error(std::string(arg) + ": expected " + expected + ", got None");
+    py::array a = py::array::ensure(obj);
+    if (!a) {
+        PyErr_Clear();
+        throw py::type_error(std::string(arg) + ": expected " + expected + ", got a " +
+                             std::string(py::str(py::type::handle_of(obj).attr("__name__"))));
+    }
+    return a;
+}
+
+// Checks ndim and every fixed dimension (-1 = any). Raises ValueError.
+void check_shape(const py::array& a, std::initializer_list<py::ssize_t> shape, const char* arg,
+                 const char* expected) {
+    bool ok = a.ndim() == py::ssize_t(shape.size());
+    py::ssize_t i = 0;
+    for (py::ssize_t d : shape) {
+        if (!ok) break;
+        if (d >= 0 && a.shape(i) != d) ok = false;
+        ++i;
+    }
+    if (!ok) throw py::value_error(std::string(arg) + ": expected shape " + expected + ", got " + shape_string(a));
+}
+
+FloatArray float_array(const py::handle& obj, std::initializer_list<py::ssize_t> shape, const char* arg,
+                       const char* expected_shape) {
+    const std::string expected = std::string("a float array of shape ") + expected_shape;
+    py::array a = as_array(obj, arg, expected.c_str());
+    const char kind = a.dtype().kind();
+    if (kind != 'f' && kind != 'i' && kind != 'u')
+        throw py::type_error(std::string(arg) + ": expected " + expected + ", got dtype " + dtype_string(a));
+    check_shape(a, shape, arg, expected_shape);
+    return FloatArray::ensure(a);  // float32, C-contiguous; no copy if it already is
+}
+
+// Integer array converted to uint32. `storage` receives converted values when
+// the input is not already a contiguous 32-bit integer array; the returned
+// pointer is valid as long as `a_out` and `storage` live.
+const uint32_t* index_array(const py::handle& obj, std::initializer_list<py::ssize_t> shape, const char* arg,
+                            const char* expected_shape, py::array& a_out, std::vector<uint32_t>& storage) {
+    const std::string expected = std::string("an integer array of shape ") + expected_shape;
+    py::array a = as_array(obj, arg, expected.c_str());
+    const char kind = a.dtype().kind();
+    if (kind != 'i' && kind != 'u')
+        throw py::type_error(std::string(arg) + ": expected " + expected + ", got dtype " + dtype_string(a));
+    check_shape(a, shape, arg, expected_shape);
+
+    // int32 and uint32 share the bit pattern we need: a negative int32 reads
+    // as a value >= 2^31, which validation drops as out of range.
+    if (a.itemsize() == 4 && (a.flags() & py::array::c_style)) {
+        a_out = a;
+        return static_cast<const uint32_t*>(a.data());
+    }
+    auto wide = py::array_t<int64_t, py::array::c_style | py::array::forcecast>::ensure(a);
+    const int64_t* src = wide.data();
+    storage.resize(size_t(wide.size()));
+    constexpr int64_t kMax = std::numeric_limits<uint32_t>::max();
+    for (size_t i = 0; i < storage.size(); ++i)
+        storage[i] = (src[i] < 0 || src[i] > kMax) ? uint32_t(kMax) : uint32_t(src[i]);
+    a_out = wide;
+    return storage.data();
+}
+
+float unit_clamp(double v, const char* arg) { return std::clamp(finite_float(v, arg), 0.0f, 1.0f); }
+
+Closure closure_from_dict(const py::dict& d, size_t index) {
+    Closure c;
+    for (auto item : d) {
+        const std::string key = py::str(item.first);
+        const std::string arg = "closures[" + std::to_string(index) + "]['" + key + "']";
+        const py::handle v = item.second;
+        if (key == "base_color") c.base_color = max(to_vec3(v, arg.c_str()), Vec3f(0.0f));
+        else if (key == "metallic") c.metallic = unit_clamp(v.cast<double>(), arg.c_str());
+        else if (key == "roughness") c.roughness = unit_clamp(v.cast<double>(), arg.c_str());
+        else if (key == "specular") c.specular = unit_clamp(v.cast<double>(), arg.c_str());
+        else if (key == "transmission") c.transmission = unit_clamp(v.cast<double>(), arg.c_str());
+        else if (key == "ior") {
+            c.ior = finite_float(v.cast<double>(), arg.c_str());
+            if (!(c.ior > 0.0f)) throw py::value_error(arg + ": index of refraction must be > 0");
+        } else {
+            throw py::value_error("closures[" + std::to_string(index) + "]: unknown key '" + key +
+                                  "' (expected base_color, metallic, roughness, specular, transmission, ior)");
+        }
+    }
+    return c;
+}
+
+LightType light_type_from(const std::string& s) {
+    if (s == "POINT") return LightType::Point;
+    if (s == "SPOT") return LightType::Spot;
+    if (s == "SUN") return LightType::Sun;
+    if (s == "AREA") return LightType::Area;
+    throw py::value_error("type: expected 'POINT', 'SPOT', 'SUN' or 'AREA', got '" + s + "'");
+}
+
+AreaShape area_shape_from(const std::string& s) {
+    if (s == "SQUARE") return AreaShape::Square;
+    if (s == "RECTANGLE") return AreaShape::Rectangle;
+    if (s == "DISK") return AreaShape::Disk;
+    if (s == "ELLIPSE") return AreaShape::Ellipse;
+    throw py::value_error("shape: expected 'SQUARE', 'RECTANGLE', 'DISK' or 'ELLIPSE', got '" + s + "'");
+}
+
+Vec3f unit_vector(const py::handle& obj, const char* arg) {
+    const Vec3f v = to_vec3(obj, arg);
+    const float len = length(v);
+    if (!(len > 1e-20f)) throw py::value_error(std::string(arg) + ": must be a non-zero vector");
+    return v / len;
+}
+
+float non_negative(double v, const char* arg) {
+    const float f = finite_float(v, arg);
+    if (f < 0.0f) throw py::value_error(std::string(arg) + ": must be >= 0");
+    return f;
+}
+
+float positive(double v, const char* arg) {
+    const float f = finite_float(v, arg);
+    if (!(f > 0.0f)) throw py::value_error(std::string(arg) + ": must be > 0");
+    return f;
+}
+
+py::tuple vec_tuple(const Vec3f& v) { return py::make_tuple(v.x, v.y, v.z); }
+
+size_t add_mesh(PyScene& self, const std::string& name, const py::handle& positions_obj,
+                const py::handle& indices_obj, const py::handle& matrix_obj, const py::handle& normals_obj,
+                const py::handle& material_ids_obj, const py::handle& material_slots_obj) {
+    self.check_mutable("add_mesh");
+    MeshInput in;
+    in.name = name;
+
+    FloatArray positions = float_array(positions_obj, {-1, 3}, "positions", "(N, 3)");
+    in.positions = positions.data();
+    in.vertex_count = size_t(positions.shape(0));
+
+    py::array indices_keep;
+    std::vector<uint32_t> indices_storage;
+    in.indices = index_array(indices_obj, {-1, 3}, "indices", "(M, 3)", indices_keep, indices_storage);
+    in.triangle_count = size_t(indices_keep.shape(0));
+
+    FloatArray matrix = float_array(matrix_obj, {4, 4}, "matrix", "(4, 4)");
+    for (int r = 0; r < 4; ++r)
+        for (int c = 0; c < 4; ++c) {
+            const float v = matrix.at(r, c);
+            if (!std::isfinite(v)) throw py::value_error("matrix: entries must be finite");
+            in.object_to_world.m[r][c] = v;
+        }
+
+    FloatArray normals;
+    if (!normals_obj.is_none()) {
+        normals = float_array(normals_obj, {-1, 3, 3}, "normals", "(M, 3, 3)");
+        if (size_t(normals.shape(0)) != in.triangle_count)
+            throw py::value_error("normals: expected shape (M, 3, 3) with M = " + std::to_string(in.triangle_count) +
+                                  " triangles, got " + shape_string(normals));
+        in.normals = normals.data();
+    }
+
+    py::array ids_keep;
+    std::vector<uint32_t> ids_storage;
+    if (!material_ids_obj.is_none()) {
+        in.material_ids = index_array(material_ids_obj, {-1}, "material_ids", "(M,)", ids_keep, ids_storage);
+        if (size_t(ids_keep.shape(0)) != in.triangle_count)
+            throw py::value_error("material_ids: expected shape (M,) with M = " + std::to_string(in.triangle_count) +
+                                  " triangles, got " + shape_string(ids_keep));
+    }
+
+    if (!material_slots_obj.is_none()) {
+        for (auto item : py::iter(material_slots_obj)) {
+            const auto slot = item.cast<long long>();
+            if (slot < 0 || size_t(slot) >= self.scene.materials.size())
+                throw py::value_error("material_slots: material index " + std::to_string(slot) +
+                                      " does not exist (scene has " + std::to_string(self.scene.materials.size()) +
+                                      " materials)");
+            in.material_slots.push_back(uint32_t(slot));
+        }
+    }
+
+    size_t added;
+    {
+        py::gil_scoped_release unlocked;  // validation of large meshes takes a while
+        added = self.scene.add_mesh(in);
+    }
+    self.finalized = false;
+    return added;
+}
+
+uint32_t add_material(PyScene& self, const std::string& name, const py::handle& closures_obj,
+                      const py::handle& weights_obj, const py::handle& emission_obj) {
+    self.check_mutable("add_material");
+    Material m;
+    m.name = name;
+
+    std::vector<Closure> closures;
+    if (!closures_obj.is_none()) {
+        for (auto item : py::iter(closures_obj)) {
+            if (!py::isinstance<py::dict>(item))
+                throw py::type_error("closures[" + std::to_string(closures.size()) + "]: expected a dict");
+            closures.push_back(closure_from_dict(item.cast<py::dict>(), closures.size()));
+        }
+    }
+    if (closures.size() > m.closures.size())
+        throw py::value_error("closures: at most " + std::to_string(m.closures.size()) + " closures, got " +
+                              std::to_string(closures.size()));
+
+    std::vector<float> weights;
+    if (!weights_obj.is_none()) {
+        for (auto item : py::iter(weights_obj))
+            weights.push_back(non_negative(item.cast<double>(), "weights"));
+        if (weights.size() != closures.size())
+            throw py::value_error("weights: expected " + std::to_string(closures.size()) + " weights (one per closure), got " +
+                                  std::to_string(weights.size()));
+    } else {
+        weights.assign(closures.size(), closures.empty() ? 0.0f : 1.0f / float(closures.size()));
+    }
+
+    if (closures.empty()) {
+        // A surface with no BSDF (e.g. a pure Emission shader) reflects nothing:
+        // one black closure without a specular layer scatters zero energy.
+        Closure black;
+        black.base_color = Vec3f(0.0f);
+        black.specular = 0.0f;
+        black.roughness = 1.0f;
+        closures.push_back(black);
+        weights.assign(1, 1.0f);
+    }
+    m.closure_count = int(closures.size());
+    for (size_t i = 0; i < m.closures.size(); ++i) {
+        m.closures[i] = i < closures.size() ? closures[i] : Closure{};
+        m.weights[i] = i < weights.size() ? weights[i] : 0.0f;
+    }
+
+    m.emission = to_vec3(emission_obj, "emission");
+    if (min_component(m.emission) < 0.0f) throw py::value_error("emission: components must be >= 0");
+    return self.scene.add_material(m);
+}
+
+size_t add_light(PyScene& self, const std::string& type, const py::handle& color, double power,
+                 const py::handle& position, const py::handle& direction, const py::handle& axis_u,
+                 const py::handle& axis_v, double radius, double spot_size, double spot_blend, double sun_angle,
+                 const std::string& shape, double size_u, double size_v) {
+    self.check_mutable("add_light");
+    Light l;
+    l.type = light_type_from(type);
+    l.color = to_vec3(color, "color");
+    if (min_component(l.color) < 0.0f) throw py::value_error("color: components must be >= 0");
+    l.power = non_negative(power, "power");
+    l.position = to_vec3(position, "position");
+    l.direction = unit_vector(direction, "direction");
+    l.axis_u = unit_vector(axis_u, "axis_u");
+    l.axis_v = unit_vector(axis_v, "axis_v");
+    l.radius = non_negative(radius, "radius");
+    l.spot_size = std::clamp(non_negative(spot_size, "spot_size"), 0.0f, kPi);
+    l.spot_blend = unit_clamp(spot_blend, "spot_blend");
+    l.sun_angle = std::clamp(non_negative(sun_angle, "sun_angle"), 0.0f, kPi);
+    l.shape = area_shape_from(shape);
+    l.size_u = non_negative(size_u, "size_u");
+    l.size_v = non_negative(size_v, "size_v");
+    self.scene.lights.push_back(l);
+    self.finalized = false;
+    return self.scene.lights.size() - 1;
+}
+
+void set_camera(PyScene& self, const std::string& projection, const py::handle& position,
+                const py::handle& forward, const py::handle& up, const py::handle& right, double half_width,
+                double half_height, double shift_x, double shift_y, double clip_start, double clip_end,
+                double aperture_radius, double focus_distance) {
+    self.check_mutable("set_camera");
+    Camera c;
+    if (projection == "PERSP") c.projection = Projection::Perspective;
+    else if (projection == "ORTHO") c.projection = Projection::Orthographic;
+    else throw py::value_error("projection: expected 'PERSP' or 'ORTHO', got '" + projection + "'");
+
+    c.position = to_vec3(position, "position");
+    // Gram-Schmidt so the frame is orthonormal even if the caller's matrix had
+    // shear or scale; `right` (optional) only decides handedness and is
+    // re-derived from forward and up.
+    c.forward = unit_vector(forward, "forward");
+    Vec3f u = to_vec3(up, "up");
+    u = u - c.forward * dot(u, c.forward);
+    if (!(length(u) > 1e-12f)) throw py::value_error("up: must not be parallel to forward");
+    c.up = normalize(u);
+    c.right = cross(c.forward, c.up);
+    if (!right.is_none() && dot(to_vec3(right, "right"), c.right) < 0.0f) c.right = -c.right;
+
+    c.half_width = positive(half_width, "half_width");
+    c.half_height = positive(half_height, "half_height");
+    c.shift_x = finite_float(shift_x, "shift_x");
+    c.shift_y = finite_float(shift_y, "shift_y");
+    c.clip_start = non_negative(clip_start, "clip_start");
+    c.clip_end = positive(clip_end, "clip_end");
+    if (!(c.clip_end > c.clip_start)) throw py::value_error("clip_end: must be greater than clip_start");
+    c.aperture_radius = non_negative(aperture_radius, "aperture_radius");
+    c.focus_distance = positive(focus_distance, "focus_distance");
+    self.scene.camera = c;
+    self.finalized = false;
+}
+
+py::dict camera_dict(const Camera& c) {
+    py::dict d;
+    d["projection"] = c.projection == Projection::Perspective ? "PERSP" : "ORTHO";
+    d["position"] = vec_tuple(c.position);
+    d["forward"] = vec_tuple(c.forward);
+    d["up"] = vec_tuple(c.up);
+    d["right"] = vec_tuple(c.right);
+    d["half_width"] = c.half_width;
+    d["half_height"] = c.half_height;
+    d["shift_x"] = c.shift_x;
+    d["shift_y"] = c.shift_y;
+    d["clip_start"] = c.clip_start;
+    d["clip_end"] = c.clip_end;
+    d["aperture_radius"] = c.aperture_radius;
+    d["focus_distance"] = c.focus_distance;
+    return d;
+}
+
+py::dict dropped_dict(const DropReport& r) {
+    py::dict d;
+    d["nonfinite_vertices"] = r.nonfinite_vertices;
+    d["out_of_range_indices"] = r.out_of_range_indices;
+    d["degenerate_triangles"] = r.degenerate_triangles;
+    d["bad_material_ids"] = r.bad_material_ids;
+    d["total_triangles"] = r.total_triangles();
+    d["skipped_meshes"] = r.skipped_meshes;
+    return d;
+}
+
+py::dict material_dict(const Material& m) {
+    py::dict d;
+    d["name"] = m.name;
+    py::list closures, weights;
+    for (int i = 0; i < m.closure_count; ++i) {
+        const Closure& c = m.closures[size_t(i)];
+        py::dict cd;
+        cd["base_color"] = vec_tuple(c.base_color);
+        cd["metallic"] = c.metallic;
+        cd["roughness"] = c.roughness;
+        cd["specular"] = c.specular;
+        cd["transmission"] = c.transmission;
+        cd["ior"] = c.ior;
+        closures.append(cd);
+        weights.append(m.weights[size_t(i)]);
+    }
+    d["closures"] = closures;
+    d["weights"] = weights;
+    d["emission"] = vec_tuple(m.emission);
+    return d;
+}
+
+}  // namespace
+
+void PyScene::check_mutable(const char* what) const {
+    if (active_renderers.load() > 0)
+        throw std::runtime_error(std::string("Scene.") + what +
+                                 ": the scene is in use by a Renderer; delete the Renderer before changing the scene");
+}
+
+void PyScene::ensure_finalized() {
+    if (finalized) return;
+    py::gil_scoped_release unlocked;
+    scene.finalize();
+    finalized = true;
+}
+
+void bind_scene(py::module_& m) {
+    py::class_<PyScene, std::shared_ptr<PyScene>>(m, "Scene", R"doc(
+A scene under construction: world-space triangles, materials, lights, camera
+and world colour. Fill it with add_material/add_mesh/add_light/set_camera,
+then pass it to Renderer (which calls finalize() if needed). Material 0 is the
+default grey diffuse.
+)doc")
+        .def(py::init<>())
+        .def("add_mesh", &add_mesh, py::arg("name"), py::arg("positions"), py::arg("indices"), py::arg("matrix"),
+             py::arg("normals") = py::none(), py::arg("material_ids") = py::none(),
+             py::arg("material_slots") = py::none(),
+             R"doc(Adds a triangle mesh, transformed to world space by `matrix`.
+
+positions: float (N, 3) object-space vertices (any real dtype, converted to float32)
+indices: integer (M, 3) vertex indices
+matrix: float (4, 4) row-major object-to-world transform
+normals: optional float (M, 3, 3) per-corner shading normals (object space)
+material_ids: optional integer (M,) per-triangle index into material_slots
+material_slots: optional list of scene material indices; empty -> material 0
+Bad triangles (non-finite, out-of-range index, zero area) are dropped and
+counted in `dropped`. Returns the number of triangles added.)doc")
+        .def("add_material", &add_material, py::arg("name"), py::arg("closures") = py::none(),
+             py::arg("weights") = py::none(), py::arg("emission") = py::make_tuple(0.0, 0.0, 0.0),
+             R"doc(Adds a material; returns its index.
+
+closures: up to 4 dicts with keys base_color, metallic, roughness, specular,
+transmission, ior (missing keys take Principled BSDF defaults; [0,1] values
+are clamped). An empty list means no BSDF (black, e.g. pure emission).
+weights: one non-negative weight per closure (default: equal, summing to 1).
+emission: emitted radiance (colour x strength).)doc")
+        .def("add_light", &add_light, py::arg("type") = "POINT", py::kw_only(),
+             py::arg("color") = py::make_tuple(1.0, 1.0, 1.0), py::arg("power") = 10.0,
+             py::arg("position") = py::make_tuple(0.0, 0.0, 0.0), py::arg("direction") = py::make_tuple(0.0, 0.0, -1.0),
+             py::arg("axis_u") = py::make_tuple(1.0, 0.0, 0.0), py::arg("axis_v") = py::make_tuple(0.0, 1.0, 0.0),
+             py::arg("radius") = 0.0, py::arg("spot_size") = 0.785, py::arg("spot_blend") = 0.15,
+             py::arg("sun_angle") = 0.0, py::arg("shape") = "SQUARE", py::arg("size_u") = 1.0,
+             py::arg("size_v") = 1.0,
+             "Adds a light in Blender units (W for point/spot/area, W/m^2 for sun); returns its index.")
+        .def("set_camera", &set_camera, py::kw_only(), py::arg("projection") = "PERSP",
+             py::arg("position") = py::make_tuple(0.0, 0.0, 5.0), py::arg("forward") = py::make_tuple(0.0, 0.0, -1.0),
+             py::arg("up") = py::make_tuple(0.0, 1.0, 0.0), py::arg("right") = py::none(),
+             py::arg("half_width") = 0.41421356, py::arg("half_height") = 0.41421356, py::arg("shift_x") = 0.0,
+             py::arg("shift_y") = 0.0, py::arg("clip_start") = 1e-3, py::arg("clip_end") = 1e30,
+             py::arg("aperture_radius") = 0.0, py::arg("focus_distance") = 10.0,
+             "Sets the camera (world-space frame; half extents of the image plane at distance 1, "
+             "or in world units for 'ORTHO').")
+        .def_property_readonly("camera", [](const PyScene& s) { return camera_dict(s.scene.camera); })
+        .def_property(
+            "world_color", [](const PyScene& s) { return vec_tuple(s.scene.world_color); },
+            [](PyScene& s, const py::handle& v) {
+                s.check_mutable("world_color");
+                const Vec3f c = to_vec3(v, "world_color");
+                if (min_component(c) < 0.0f) throw py::value_error("world_color: components must be >= 0");
+                s.scene.world_color = c;
+                s.finalized = false;
+            },
+            "Constant environment radiance (r, g, b).")
+        .def("finalize", &PyScene::ensure_finalized,
+             "Computes scene features and the emissive triangle list. Renderer calls it if needed.")
+        .def_property_readonly("finalized", [](const PyScene& s) { return s.finalized; })
+        .def_property_readonly("triangle_count", [](const PyScene& s) { return s.scene.triangle_count(); })
+        .def_property_readonly("material_count", [](const PyScene& s) { return s.scene.materials.size(); })
+        .def_property_readonly("light_count", [](const PyScene& s) { return s.scene.lights.size(); })
+        .def_property_readonly("object_names", [](const PyScene& s) { return s.scene.object_names; })
+        .def("material", [](const PyScene& s, size_t i) {
+                if (i >= s.scene.materials.size()) throw py::index_error("material index out of range");
+                return material_dict(s.scene.materials[i]);
+            }, py::arg("index"), "The material at `index` as a dict (as stored, after clamping).")
+        .def_property_readonly("bounds", [](const PyScene& s) {
+                const BBox b = s.scene.bounds();
+                return py::make_tuple(vec_tuple(b.lo), vec_tuple(b.hi));
+            })
+        .def_property_readonly("dropped", [](const PyScene& s) { return dropped_dict(s.scene.dropped); },
+                               "What validation removed, per reason.")
+        .def_property_readonly("dropped_summary", [](const PyScene& s) { return s.scene.dropped.summary(); },
+                               "One human-readable line; empty when nothing was dropped.")
+        .def_property_readonly("features", [](PyScene& s) {
+                s.ensure_finalized();
+                return s.scene.features.names();
+            }, "Names of the effects this scene needs (finalizes the scene).")
+        .def("__repr__", [](const PyScene& s) {
+            return "<coherent.Scene: " + std::to_string(s.scene.triangle_count()) + " triangles, " +
+                   std::to_string(s.scene.materials.size()) + " materials, " + std::to_string(s.scene.lights.size()) +
+                   " lights>";
+        });
+}
+
+}  // namespace coherent::python
