@@ -1,7 +1,9 @@
 // Binary BVH over the scene's triangles: build (bvh_build.cpp) is separate
-// from traversal (traverse_single.cpp). Later layers add wide nodes, packets
-// and streams over the same tree; every kernel must return identical closest
-// hits for the same rays.
+// from traversal (traverse_single.cpp). The binary tree (nodes()) is the
+// portable result; single-ray traversal runs on a private 8-wide collapse of
+// it (bvh_layout.h, bvh_layout.cpp). Later layers add packets and streams
+// over the same tree; every kernel must return identical closest hits for
+// the same rays.
 #pragma once
 
 #include <cstddef>
@@ -12,6 +14,7 @@
 #include "../core/ray.h"
 #include "../core/vec.h"
 #include "aligned_allocator.h"
+#include "bvh_layout.h"
 
 namespace coherent {
 
@@ -44,7 +47,10 @@ struct BvhBuildOptions {
     int bins = 16;             // SAH bins per axis
     int max_leaf_size = 4;     // triangles per leaf at most (except for unsplittable sets)
     float traversal_cost = 1.0f;
-    float intersection_cost = 1.0f;
+    float intersection_cost = 1.0f;  // per group of `leaf_simd_width` triangles
+    // Triangles tested together by one SIMD leaf test: the SAH charges a leaf
+    // ceil(n / leaf_simd_width) intersections, so leaves fill whole packs.
+    int leaf_simd_width = 4;
 };
 
 struct BvhBuildStats {
@@ -63,10 +69,14 @@ public:
     // For tests and tools: build over a raw triangle soup (3 vertices per triangle).
     void build(const std::vector<Vec3f>& triangle_vertices, const BvhBuildOptions& opt = {});
 
-    // Closest hit in [ray.tmin, ray.tmax]. On a hit, fills `hit` and returns true.
+    // Closest hit with t in (ray.tmin, ray.tmax] (half-open, as in ray.h and
+    // Embree: a hit exactly at tmin, e.g. from an origin lying on a surface,
+    // does not count). On a hit, fills `hit` and returns true. Ties (a ray
+    // through a shared edge) go to the lowest triangle index.
     // Watertight (Woop et al. 2013): rays through shared edges/vertices never escape.
+    // Invalid rays (NaN, zero or non-finite direction, tmin > tmax) hit nothing.
     bool intersect(const Ray& ray, Hit& hit, TraversalCounters* counters = nullptr) const;
-    // Any hit in [ray.tmin, ray.tmax] (shadow rays).
+    // Any hit with t in (ray.tmin, ray.tmax] (shadow rays).
     bool occluded(const Ray& ray, TraversalCounters* counters = nullptr) const;
 
     const std::vector<BvhNode>& nodes() const { return nodes_; }
@@ -82,12 +92,14 @@ private:
     template <bool kAnyHit, bool kCount>
     bool traverse(const Ray& ray, Hit* hit, TraversalCounters* counters) const;
 
+    void build_traversal_layout(const Vec3f* triangle_vertices);
+
     std::vector<BvhNode> nodes_;
     std::vector<uint32_t> prim_order_;  // leaf slot -> scene triangle index
-    std::vector<Vec3f> tri_vertices_;   // reordered copy, 3 per leaf slot (cache-friendly leaves)
-    // Traversal copy of nodes_: node i lives at trav_nodes_[i + 1], so that every
-    // sibling pair (2k+1, 2k+2) fills exactly one 64-byte cache line.
-    std::vector<BvhNode, AlignedAllocator<BvhNode, 64>> trav_nodes_;
+    // Traversal layout (bvh_layout.h): the tree collapsed to 8-wide nodes
+    // (root first), one or more TrianglePack4 per leaf.
+    std::vector<WideNode8, AlignedAllocator<WideNode8, 64>> wide_;
+    std::vector<TrianglePack4, AlignedAllocator<TrianglePack4, 64>> packs_;
     BvhBuildStats stats_;
 };
 

@@ -1,0 +1,445 @@
+// coherent-bench: single-ray traversal throughput of our BVH against Embree 3
+// on the same rays.
+//
+//   coherent-bench SCENE.glb [--threads N] [--json] [--width W] [--height H]
+//                  [--runs R] [--ao-samples S]
+//
+// Ray sets (all generated once, from our own closest hits, and replayed
+// identically through both implementations):
+//   primary  1 spp pinhole rays through pixel centres of scene.camera;
+//   ao       S (16) cosine-distributed occlusion rays per primary hit, about
+//            the geometric normal facing the camera, tmax = 0.1 * scene
+//            bounding-box diagonal (the usual "local" AO radius);
+//   diffuse  one cosine-distributed closest-hit ray per primary hit.
+// Secondary origins are pushed off the surface with the integer-ulp offset of
+// Waechter and Binder (Ray Tracing Gems, ch. 6), which scales with the
+// magnitude of the hit point, so no ray starts behind its own surface.
+//
+// Each (ray set, implementation) is timed as the best of R (3) runs. The
+// bench reports Mrays/s, the coherent/embree ratio, build times, our bytes per
+// triangle, the agreement rate between the two implementations and our
+// traversal counters (box and triangle tests per ray).
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+#include <tbb/task_arena.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <ctime>
+#include <filesystem>
+#include <functional>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "accel/bvh.h"
+#include "core/ray.h"
+#include "core/vec.h"
+#include "io/gltf.h"
+#include "scene/scene.h"
+#ifdef COHERENT_HAVE_EMBREE
+#include "accel/embree_reference.h"
+#endif
+
+using namespace coherent;
+
+namespace {
+
+struct Options {
+    std::string scene_path;
+    int threads = 1;
+    bool json = false;
+    int width = 1024;
+    int height = 768;
+    int runs = 3;
+    int ao_samples = 16;
+};
+
+[[noreturn]] void usage(const char* msg) {
+    if (msg) std::fprintf(stderr, "coherent-bench: %s\n", msg);
+    std::fprintf(stderr,
+                 "usage: coherent-bench SCENE.glb [--threads N] [--json] [--width W] [--height H] [--runs R] "
+                 "[--ao-samples S]\n");
+    std::exit(2);
+}
+
+int parse_int(const char* s, const char* name, int lo, int hi) {
+    char* end = nullptr;
+    const long v = std::strtol(s, &end, 10);
+    if (!end || *end || v < lo || v > hi) {
+        std::fprintf(stderr, "coherent-bench: %s must be an integer in [%d, %d], got '%s'\n", name, lo, hi, s);
+        std::exit(2);
+    }
+    return static_cast<int>(v);
+}
+
+Options parse(int argc, char** argv) {
+    Options o;
+    for (int i = 1; i < argc; ++i) {
+        const std::string a = argv[i];
+        auto value = [&](const char* name) {
+            if (i + 1 >= argc) usage((std::string(name) + " needs a value").c_str());
+            return argv[++i];
+        };
+        if (a == "--json") o.json = true;
+        else if (a == "--threads") o.threads = parse_int(value("--threads"), "--threads", 1, 1024);
+        else if (a == "--width") o.width = parse_int(value("--width"), "--width", 1, 16384);
+        else if (a == "--height") o.height = parse_int(value("--height"), "--height", 1, 16384);
+        else if (a == "--runs") o.runs = parse_int(value("--runs"), "--runs", 1, 100);
+        else if (a == "--ao-samples") o.ao_samples = parse_int(value("--ao-samples"), "--ao-samples", 1, 1024);
+        else if (a == "-h" || a == "--help") usage(nullptr);
+        else if (!a.empty() && a[0] == '-') usage(("unknown option " + a).c_str());
+        else if (o.scene_path.empty()) o.scene_path = a;
+        else usage("more than one scene given");
+    }
+    if (o.scene_path.empty()) usage("no scene given");
+    return o;
+}
+
+// ---- progress on stderr -----------------------------------------------------
+
+class Progress {
+public:
+    explicit Progress(std::string phase) : phase_(std::move(phase)), tty_(isatty(STDERR_FILENO)) {
+        if (!tty_) std::fprintf(stderr, "coherent-bench: %s...\n", phase_.c_str());
+        else update(0.0);
+    }
+    void update(double fraction) {
+        if (!tty_) return;
+        std::fprintf(stderr, "\r  %-40s %5.1f%%", phase_.c_str(), 100.0 * fraction);
+        std::fflush(stderr);
+    }
+    ~Progress() {
+        if (tty_) std::fprintf(stderr, "\r  %-40s done  \n", phase_.c_str());
+    }
+
+private:
+    std::string phase_;
+    bool tty_;
+};
+
+// ---- ray generation ---------------------------------------------------------
+
+// Integer-ulp offset along n (Waechter & Binder 2019, Ray Tracing Gems ch. 6).
+Vec3f offset_origin(const Vec3f& p, const Vec3f& n) {
+    constexpr float kOrigin = 1.0f / 32.0f, kFloatScale = 1.0f / 65536.0f, kIntScale = 256.0f;
+    Vec3f out;
+    for (int a = 0; a < 3; ++a) {
+        const int32_t of = static_cast<int32_t>(kIntScale * n[a]);
+        const float pa = p[a];
+        int32_t bits;
+        std::memcpy(&bits, &pa, 4);
+        bits += pa < 0.0f ? -of : of;
+        float moved;
+        std::memcpy(&moved, &bits, 4);
+        out[a] = std::fabs(pa) < kOrigin ? pa + kFloatScale * n[a] : moved;
+    }
+    return out;
+}
+
+// Small counter-based generator: the same numbers for a given (stream, index)
+// regardless of threads (PCG-style hash of a 64-bit counter).
+struct Rng {
+    uint64_t state;
+    explicit Rng(uint64_t seed) : state(seed * 0x9E3779B97F4A7C15ull + 0x2545F4914F6CDD1Dull) {}
+    float next() {
+        state = state * 6364136223846793005ull + 1442695040888963407ull;
+        uint32_t x = static_cast<uint32_t>(((state >> 18u) ^ state) >> 27u);
+        const uint32_t rot = static_cast<uint32_t>(state >> 59u);
+        x = (x >> rot) | (x << ((32 - rot) & 31));
+        return static_cast<float>(x >> 8) * 0x1p-24f;
+    }
+};
+
+Vec3f cosine_direction(const Vec3f& n, float u1, float u2) {
+    const float r = std::sqrt(u1), phi = 2.0f * kPi * u2;
+    const float x = r * std::cos(phi), y = r * std::sin(phi), z = std::sqrt(std::max(0.0f, 1.0f - u1));
+    Vec3f t, b;
+    make_basis(n, t, b);
+    return t * x + b * y + n * z;
+}
+
+struct RaySets {
+    std::vector<Ray> primary, ao, diffuse;
+};
+
+RaySets make_rays(const Scene& scene, const Bvh& bvh, const Options& opt) {
+    RaySets s;
+    const Camera& cam = scene.camera;
+    const int w = opt.width, h = opt.height;
+    s.primary.resize(static_cast<size_t>(w) * h);
+    for (int y = 0; y < h; ++y)
+        for (int x = 0; x < w; ++x) {
+            const float sx = (2.0f * (x + 0.5f) / w - 1.0f) * cam.half_width;
+            const float sy = (1.0f - 2.0f * (y + 0.5f) / h) * cam.half_height;
+            Ray r;
+            if (cam.projection == Projection::Orthographic) {
+                r.o = cam.position + cam.right * sx + cam.up * sy;
+                r.d = cam.forward;
+            } else {
+                r.o = cam.position;
+                r.d = cam.forward + cam.right * sx + cam.up * sy;
+            }
+            r.tmin = 0.0f;
+            r.tmax = kInf;
+            s.primary[static_cast<size_t>(y) * w + x] = r;
+        }
+
+    std::vector<Hit> hits(s.primary.size());
+    {
+        Progress p("generating secondary rays");
+        tbb::parallel_for(size_t(0), s.primary.size(), [&](size_t i) { bvh.intersect(s.primary[i], hits[i]); });
+    }
+    const BBox bounds = scene.bounds();
+    const float ao_radius = 0.1f * length(bounds.extent());
+    for (size_t i = 0; i < hits.size(); ++i) {
+        const Hit& hit = hits[i];
+        if (!hit.valid()) continue;
+        const Vec3f* v = &scene.vertices[3 * size_t(hit.prim)];
+        Vec3f n = cross(v[1] - v[0], v[2] - v[0]);
+        const float len = length(n);
+        if (!(len > 0.0f) || !std::isfinite(len)) continue;
+        n = n / len;
+        if (dot(n, s.primary[i].d) > 0.0f) n = -n;  // face the incoming ray
+        const Vec3f p = v[0] * (1.0f - hit.u - hit.v) + v[1] * hit.u + v[2] * hit.v;
+        const Vec3f o = offset_origin(p, n);
+        Rng rng(i);
+        for (int k = 0; k < opt.ao_samples; ++k) {
+            const float u1 = rng.next(), u2 = rng.next();
+            Ray r;
+            r.o = o;
+            r.d = cosine_direction(n, u1, u2);
+            r.tmax = ao_radius;
+            s.ao.push_back(r);
+        }
+        const float u1 = rng.next(), u2 = rng.next();
+        Ray r;
+        r.o = o;
+        r.d = cosine_direction(n, u1, u2);
+        s.diffuse.push_back(r);
+    }
+    return s;
+}
+
+// ---- timing -------------------------------------------------------------------
+
+// Runs `body(begin, end)` over [0, n) on `threads` threads (blocks of rays).
+void run_blocks(size_t n, int threads, const std::function<void(size_t, size_t)>& body) {
+    if (threads == 1) {
+        body(0, n);
+        return;
+    }
+    tbb::task_arena arena(threads);
+    arena.execute([&] {
+        tbb::parallel_for(tbb::blocked_range<size_t>(0, n, 1024),
+                          [&](const tbb::blocked_range<size_t>& r) { body(r.begin(), r.end()); });
+    });
+}
+
+// Seconds on the calling thread's CPU clock: on a shared machine it leaves out
+// the time this thread spent descheduled, which wall time would count.
+double thread_cpu_seconds() {
+    timespec ts;
+    clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
+    return double(ts.tv_sec) + 1e-9 * double(ts.tv_nsec);
+}
+
+double wall_seconds() {
+    return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
+}
+
+// Best time of `runs` runs of the whole ray set: thread CPU time with one
+// thread (all work runs on this thread), wall time with several.
+double best_seconds(int runs, int threads, const std::string& label, const std::function<void()>& once) {
+    double best = kInf;
+    Progress p(label);
+    for (int i = 0; i < runs; ++i) {
+        const double start = threads == 1 ? thread_cpu_seconds() : wall_seconds();
+        once();
+        const double end = threads == 1 ? thread_cpu_seconds() : wall_seconds();
+        best = std::min(best, end - start);
+        p.update(double(i + 1) / runs);
+    }
+    return best;
+}
+
+struct Row {
+    std::string rays, impl;
+    double mrays = 0.0;
+    double agreement = -1.0;  // fraction of rays where both agree (coherent rows)
+    double box_tests = -1.0, tri_tests = -1.0;  // per ray (coherent rows)
+};
+
+std::string scene_name(const std::string& path) { return std::filesystem::path(path).stem().string(); }
+
+}  // namespace
+
+int main(int argc, char** argv) {
+    const Options opt = parse(argc, argv);
+    const std::string name = scene_name(opt.scene_path);
+    // The console table goes to stdout, or to stderr when stdout carries JSON.
+    FILE* table = opt.json ? stderr : stdout;
+
+    Scene scene;
+    {
+        Progress p("loading " + name);
+        const GltfLoadResult res = load_gltf(opt.scene_path, scene, float(opt.width) / float(opt.height));
+        if (!res.ok) {
+            std::fprintf(stderr, "coherent-bench: cannot load %s: %s\n", opt.scene_path.c_str(), res.error.c_str());
+            return 1;
+        }
+        scene.finalize();
+    }
+    const size_t tris = scene.vertices.size() / 3;
+    if (tris == 0) {
+        std::fprintf(stderr, "coherent-bench: %s has no triangles\n", opt.scene_path.c_str());
+        return 1;
+    }
+
+    tbb::task_arena arena(opt.threads);
+    Bvh bvh;
+    {
+        Progress p("building coherent BVH");
+        arena.execute([&] { bvh.build(scene); });
+    }
+    const BvhBuildStats& bs = bvh.build_stats();
+    std::fprintf(table, "scene %s: %zu triangles, %d x %d, %d thread(s)\n", name.c_str(), tris, opt.width,
+                 opt.height, opt.threads);
+    std::fprintf(table, "  coherent build: %.3f s, %zu nodes, %zu leaves, depth %d, %.1f bytes/triangle\n",
+                 bs.seconds, bs.nodes, bs.leaves, bs.depth, double(bs.bytes) / tris);
+    if (opt.json)
+        std::printf("{\"scene\": \"%s\", \"rays\": \"build\", \"impl\": \"coherent\", \"threads\": %d, "
+                    "\"build_seconds\": %.4f, \"bytes_per_triangle\": %.2f, \"triangles\": %zu}\n",
+                    name.c_str(), opt.threads, bs.seconds, double(bs.bytes) / tris, tris);
+
+#ifdef COHERENT_HAVE_EMBREE
+    const std::string config = "threads=" + std::to_string(opt.threads);
+    std::unique_ptr<EmbreeReference> embree;
+    {
+        Progress p("building Embree scene (high quality)");
+        embree = std::make_unique<EmbreeReference>(scene.vertices.data(), tris, config.c_str(), false,
+                                                   RTC_BUILD_QUALITY_HIGH);
+    }
+    std::fprintf(table, "  embree build:   %.3f s (RTC_BUILD_QUALITY_HIGH, %s)\n", embree->build_seconds(),
+                 config.c_str());
+    if (opt.json)
+        std::printf("{\"scene\": \"%s\", \"rays\": \"build\", \"impl\": \"embree\", \"threads\": %d, "
+                    "\"build_seconds\": %.4f}\n",
+                    name.c_str(), opt.threads, embree->build_seconds());
+#endif
+
+    const RaySets sets = make_rays(scene, bvh, opt);
+    std::fprintf(table, "  timing: best of %d runs, %s\n", opt.runs,
+                 opt.threads == 1 ? "thread CPU time (CLOCK_THREAD_CPUTIME_ID)" : "wall time");
+    std::fprintf(table, "  rays: primary %zu, ao %zu (%d per hit, tmax %.4g), diffuse %zu\n", sets.primary.size(),
+                 sets.ao.size(), opt.ao_samples, 0.1f * length(scene.bounds().extent()), sets.diffuse.size());
+
+    std::vector<Row> rows;
+    struct SetDesc {
+        const char* name;
+        const std::vector<Ray>* rays;
+        bool occlusion;
+    };
+    const SetDesc descs[] = {{"primary", &sets.primary, false}, {"ao", &sets.ao, true}, {"diffuse", &sets.diffuse, false}};
+    for (const SetDesc& set : descs) {
+        const std::vector<Ray>& rays = *set.rays;
+        const size_t n = rays.size();
+        if (n == 0) continue;
+        std::vector<Hit> ours(n);
+        std::vector<uint8_t> ours_occ(n);
+
+        // Counters come from a separate, untimed pass.
+        TraversalCounters counters;
+        for (size_t i = 0; i < n; ++i) {
+            Hit h;
+            if (set.occlusion) bvh.occluded(rays[i], &counters);
+            else bvh.intersect(rays[i], h, &counters);
+        }
+
+        const double t_ours = best_seconds(opt.runs, opt.threads, std::string(set.name) + ": coherent", [&] {
+            run_blocks(n, opt.threads, [&](size_t b, size_t e) {
+                if (set.occlusion)
+                    for (size_t i = b; i < e; ++i) ours_occ[i] = bvh.occluded(rays[i]);
+                else
+                    for (size_t i = b; i < e; ++i) {
+                        ours[i] = Hit{};
+                        bvh.intersect(rays[i], ours[i]);
+                    }
+            });
+        });
+        Row ro{set.name, "coherent", n / t_ours * 1e-6};
+        ro.box_tests = double(counters.box_tests) / n;
+        ro.tri_tests = double(counters.triangle_tests) / n;
+
+#ifdef COHERENT_HAVE_EMBREE
+        std::vector<Hit> theirs(n);
+        std::vector<uint8_t> theirs_occ(n);
+        const double t_embree = best_seconds(opt.runs, opt.threads, std::string(set.name) + ": embree", [&] {
+            run_blocks(n, opt.threads, [&](size_t b, size_t e) {
+                if (set.occlusion)
+                    for (size_t i = b; i < e; ++i) theirs_occ[i] = embree->occluded(rays[i]);
+                else
+                    for (size_t i = b; i < e; ++i) {
+                        theirs[i] = Hit{};
+                        embree->intersect(rays[i], theirs[i]);
+                    }
+            });
+        });
+        // Agreement: same hit/miss; for closest hits also the same t (within
+        // 1e-4 relative) -- the triangle may differ only on exact ties.
+        size_t agree = 0, only_ours = 0, only_theirs = 0, t_differs = 0;
+        for (size_t i = 0; i < n; ++i) {
+            const bool a = set.occlusion ? ours_occ[i] != 0 : ours[i].valid();
+            const bool b = set.occlusion ? theirs_occ[i] != 0 : theirs[i].valid();
+            if (a != b) {
+                (a ? only_ours : only_theirs)++;
+            } else if (!set.occlusion && a &&
+                       std::fabs(ours[i].t - theirs[i].t) > 1e-4f * std::max(1.0f, std::fabs(ours[i].t))) {
+                ++t_differs;
+            } else {
+                ++agree;
+            }
+        }
+        ro.agreement = double(agree) / n;
+        std::fprintf(table, "  %s: %zu rays, disagreements: hit only by coherent %zu, only by embree %zu, t differs %zu\n",
+                     set.name, n, only_ours, only_theirs, t_differs);
+        rows.push_back(ro);
+        rows.push_back(Row{set.name, "embree", n / t_embree * 1e-6});
+#else
+        rows.push_back(ro);
+#endif
+    }
+
+    std::fprintf(table, "\n  %-16s %-8s %-9s %10s %8s %10s %10s %10s\n", "scene", "rays", "impl", "Mrays/s", "ratio",
+                 "agree", "box/ray", "tri/ray");
+    for (const Row& r : rows) {
+        double ratio = -1.0;
+        for (const Row& o : rows)
+            if (o.rays == r.rays && o.impl == "embree" && r.impl == "coherent") ratio = r.mrays / o.mrays;
+        char ratio_s[16] = "", agree_s[16] = "", box_s[16] = "", tri_s[16] = "";
+        if (ratio >= 0) std::snprintf(ratio_s, sizeof ratio_s, "%.2f", ratio);
+        if (r.agreement >= 0) std::snprintf(agree_s, sizeof agree_s, "%.5f", r.agreement);
+        if (r.box_tests >= 0) std::snprintf(box_s, sizeof box_s, "%.1f", r.box_tests);
+        if (r.tri_tests >= 0) std::snprintf(tri_s, sizeof tri_s, "%.1f", r.tri_tests);
+        std::fprintf(table, "  %-16s %-8s %-9s %10.2f %8s %10s %10s %10s\n", name.c_str(), r.rays.c_str(),
+                     r.impl.c_str(), r.mrays, ratio_s, agree_s, box_s, tri_s);
+        if (opt.json) {
+            std::printf("{\"scene\": \"%s\", \"rays\": \"%s\", \"impl\": \"%s\", \"traversal\": \"single\", "
+                        "\"threads\": %d, \"mrays_per_s\": %.3f",
+                        name.c_str(), r.rays.c_str(), r.impl.c_str(), opt.threads, r.mrays);
+            if (ratio >= 0) std::printf(", \"ratio_vs_embree\": %.3f", ratio);
+            if (r.agreement >= 0) std::printf(", \"agreement\": %.6f", r.agreement);
+            if (r.box_tests >= 0)
+                std::printf(", \"box_tests_per_ray\": %.2f, \"triangle_tests_per_ray\": %.2f", r.box_tests,
+                            r.tri_tests);
+            std::printf("}\n");
+        }
+    }
+    std::fflush(stdout);
+    return 0;
+}

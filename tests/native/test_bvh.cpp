@@ -1,0 +1,383 @@
+// Binary BVH: structure invariants, determinism, and closest/any hit against a
+// brute-force oracle that tests every triangle.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <random>
+#include <set>
+
+#include <tbb/task_arena.h>
+
+#include "accel/bvh.h"
+#include "bvh_test_meshes.h"
+
+using namespace coherent;
+using namespace coherent::testing_meshes;
+
+namespace {
+
+bool box_contains(const BBox& outer, const BBox& inner) {
+    return outer.lo.x <= inner.lo.x && outer.lo.y <= inner.lo.y && outer.lo.z <= inner.lo.z &&
+           outer.hi.x >= inner.hi.x && outer.hi.y >= inner.hi.y && outer.hi.z >= inner.hi.z;
+}
+
+// Walks the tree from the root and checks every structural invariant.
+void check_structure(const Bvh& bvh, const std::vector<Vec3f>& soup, const BvhBuildOptions& opt) {
+    const auto& nodes = bvh.nodes();
+    const auto& order = bvh.prim_order();
+    ASSERT_FALSE(nodes.empty());
+    std::vector<int> seen_node(nodes.size(), 0);
+    std::vector<int> seen_slot(order.size(), 0);
+    std::vector<uint32_t> stack{0};
+    size_t leaves = 0;
+    while (!stack.empty()) {
+        const uint32_t i = stack.back();
+        stack.pop_back();
+        ASSERT_LT(i, nodes.size());
+        ASSERT_EQ(seen_node[i]++, 0) << "node reached twice";
+        const BvhNode& n = nodes[i];
+        if (n.is_leaf()) {
+            ++leaves;
+            EXPECT_LE(n.count, static_cast<uint32_t>(opt.max_leaf_size));
+            for (uint32_t s = n.index; s < n.index + n.count; ++s) {
+                ASSERT_LT(s, order.size());
+                seen_slot[s]++;
+                const uint32_t tri = order[s];
+                BBox tb;
+                for (int k = 0; k < 3; ++k) tb.expand(soup[3 * tri + k]);
+                EXPECT_TRUE(box_contains(n.box, tb)) << "leaf box misses its triangle " << tri;
+            }
+        } else {
+            ASSERT_LT(n.index + 1, nodes.size());
+            EXPECT_EQ(n.index % 2, 1u) << "sibling pairs start at odd indices";
+            EXPECT_TRUE(box_contains(n.box, nodes[n.index].box));
+            EXPECT_TRUE(box_contains(n.box, nodes[n.index + 1].box));
+            stack.push_back(n.index);
+            stack.push_back(n.index + 1);
+        }
+    }
+    for (size_t i = 0; i < nodes.size(); ++i) EXPECT_EQ(seen_node[i], 1) << "unreachable node " << i;
+    for (size_t s = 0; s < order.size(); ++s) EXPECT_EQ(seen_slot[s], 1) << "slot " << s << " not in exactly one leaf";
+    std::set<uint32_t> prims(order.begin(), order.end());
+    EXPECT_EQ(prims.size(), order.size()) << "a triangle appears twice";
+    EXPECT_EQ(bvh.build_stats().nodes, nodes.size());
+    EXPECT_EQ(bvh.build_stats().leaves, leaves);
+    EXPECT_GT(bvh.build_stats().bytes, 0u);
+    EXPECT_GE(bvh.build_stats().depth, 1);
+}
+
+// Rays from random points in a box toward random directions, some with the
+// origin far outside so that many miss.
+std::vector<Ray> random_rays(size_t n, uint32_t seed, float extent) {
+    std::mt19937 rng(seed);
+    std::uniform_real_distribution<float> pos(-1.5f * extent, 1.5f * extent);
+    std::uniform_real_distribution<float> unit(0.0f, 1.0f);
+    std::vector<Ray> rays(n);
+    for (auto& r : rays) {
+        r.o = Vec3f(pos(rng), pos(rng), pos(rng));
+        // Un-normalised directions exercise t in units of |d|.
+        r.d = random_unit(rng) * (0.25f + 2.0f * unit(rng));
+        r.tmin = unit(rng) < 0.2f ? 0.5f * unit(rng) : 0.0f;
+        r.tmax = unit(rng) < 0.3f ? 1.0f + 30.0f * unit(rng) : kInf;
+    }
+    return rays;
+}
+
+void expect_matches_brute_force(const Bvh& bvh, const std::vector<Vec3f>& soup, const std::vector<Ray>& rays,
+                                size_t* hits_out = nullptr) {
+    size_t hits = 0;
+    for (size_t i = 0; i < rays.size(); ++i) {
+        const Ray& r = rays[i];
+        const Hit expected = brute_force_closest(soup, r);
+        Hit got;
+        const bool hit = bvh.intersect(r, got);
+        ASSERT_EQ(hit, expected.valid()) << "ray " << i;
+        EXPECT_EQ(bvh.occluded(r), expected.valid()) << "ray " << i;
+        if (!hit) {
+            EXPECT_FALSE(got.valid());
+            continue;
+        }
+        ++hits;
+        EXPECT_EQ(got.prim, expected.prim) << "ray " << i;
+        EXPECT_EQ(got.t, expected.t) << "ray " << i;
+        EXPECT_EQ(got.u, expected.u) << "ray " << i;
+        EXPECT_EQ(got.v, expected.v) << "ray " << i;
+        EXPECT_GE(got.t, r.tmin);
+        EXPECT_LE(got.t, r.tmax);
+    }
+    if (hits_out) *hits_out = hits;
+}
+
+}  // namespace
+
+TEST(Bvh, EmptyInputHitsNothing) {
+    Bvh bvh;
+    bvh.build(std::vector<Vec3f>{});
+    EXPECT_TRUE(bvh.empty());
+    Ray r;
+    r.d = Vec3f(0, 0, 1);
+    Hit h;
+    EXPECT_FALSE(bvh.intersect(r, h));
+    EXPECT_FALSE(bvh.occluded(r));
+    Bvh unbuilt;
+    EXPECT_FALSE(unbuilt.intersect(r, h));
+}
+
+TEST(Bvh, SmallSoupsMatchBruteForce) {
+    for (size_t n : {1u, 2u, 3u, 5u, 17u, 64u}) {
+        const auto soup = random_soup(n, 7 + static_cast<uint32_t>(n), 2.0f, 1.5f);
+        Bvh bvh;
+        bvh.build(soup);
+        check_structure(bvh, soup, {});
+        expect_matches_brute_force(bvh, soup, random_rays(2000, 11, 2.0f));
+    }
+}
+
+TEST(Bvh, RandomSoupMatchesBruteForce) {
+    const auto soup = random_soup(20000, 1234, 10.0f, 1.0f);
+    Bvh bvh;
+    bvh.build(soup);
+    check_structure(bvh, soup, {});
+    size_t hits = 0;
+    expect_matches_brute_force(bvh, soup, random_rays(3000, 99, 10.0f), &hits);
+    EXPECT_GT(hits, 1000u) << "the ray set should exercise hits, not only misses";
+}
+
+TEST(Bvh, IcosphereAndGridMatchBruteForce) {
+    // Closed meshes with shared edges: ties between neighbours are common.
+    const auto sphere = icosphere(4, 3.0f, Vec3f(0.5f, -0.25f, 1.0f)).soup();
+    const auto cube = tessellated_cube(16, 0.25f, Vec3f(-2.0f, -2.0f, -2.0f)).soup();
+    for (const auto* soup : {&sphere, &cube}) {
+        Bvh bvh;
+        bvh.build(*soup);
+        check_structure(bvh, *soup, {});
+        size_t hits = 0;
+        expect_matches_brute_force(bvh, *soup, random_rays(4000, 5, 3.0f), &hits);
+        EXPECT_GT(hits, 500u);
+    }
+}
+
+TEST(Bvh, LeafSizeOptionIsRespected) {
+    const auto soup = random_soup(5000, 3);
+    for (int leaf : {1, 2, 8}) {
+        BvhBuildOptions opt;
+        opt.max_leaf_size = leaf;
+        opt.bins = 8;
+        Bvh bvh;
+        bvh.build(soup, opt);
+        check_structure(bvh, soup, opt);
+        expect_matches_brute_force(bvh, soup, random_rays(500, 4, 10.0f));
+    }
+}
+
+TEST(Bvh, CoincidentCentroidsUseMedianSplit) {
+    // 200 triangles with the same centroid (the origin), rotated about random
+    // axes: SAH cannot separate them, the median fallback must. Their planes
+    // all differ, so exact ties (which may legitimately resolve differently
+    // within rounding, see SharedEdgeTies) are measure-zero.
+    std::mt19937 rng(5);
+    std::vector<Vec3f> soup;
+    for (int i = 0; i < 200; ++i) {
+        Vec3f a = random_unit(rng), t, b;
+        make_basis(a, t, b);
+        const float s = 1.0f + 0.01f * i;
+        const Vec3f p0 = t * s, p1 = (t * -0.5f + b * 0.866f) * s;
+        soup.push_back(p0);
+        soup.push_back(p1);
+        soup.push_back(-(p0 + p1));  // centroid exactly 0 up to rounding
+    }
+    Bvh bvh;
+    bvh.build(soup);
+    check_structure(bvh, soup, {});
+    size_t hits = 0;
+    expect_matches_brute_force(bvh, soup, random_rays(2000, 8, 2.0f), &hits);
+    EXPECT_GT(hits, 200u);
+}
+
+TEST(Bvh, CoplanarOverlapsAgreeWithinRounding) {
+    // Overlapping coplanar triangles: every hit is a tie up to the rounding of
+    // each triangle's t, and the BVH may legitimately cull a box whose entry
+    // distance lies above a neighbour's rounded t. The hit must still be a
+    // real hit of the ray at the brute-force distance within a few ulps.
+    std::vector<Vec3f> soup;
+    for (int i = 0; i < 200; ++i) {
+        const float s = 1.0f + 0.01f * i;
+        soup.push_back(Vec3f(-s, -1, 0));
+        soup.push_back(Vec3f(s, -1, 0));
+        soup.push_back(Vec3f(0, 2, 0));
+    }
+    Bvh bvh;
+    bvh.build(soup);
+    check_structure(bvh, soup, {});
+    size_t hits = 0;
+    for (const Ray& r : random_rays(2000, 8, 2.0f)) {
+        const Hit expected = brute_force_closest(soup, r);
+        Hit got;
+        ASSERT_EQ(bvh.intersect(r, got), expected.valid());
+        EXPECT_EQ(bvh.occluded(r), expected.valid());
+        if (!expected.valid()) continue;
+        ++hits;
+        EXPECT_NEAR(got.t, expected.t, 1e-5f * (1.0f + expected.t));
+        // The reported triangle really is hit at the reported t.
+        const std::vector<Vec3f> one(soup.begin() + 3 * got.prim, soup.begin() + 3 * got.prim + 3);
+        const Hit check = brute_force_closest(one, r);
+        ASSERT_TRUE(check.valid());
+        EXPECT_EQ(check.t, got.t);
+    }
+    EXPECT_GT(hits, 100u);
+}
+
+TEST(Bvh, BuildIsDeterministicAcrossThreadCounts) {
+    const auto soup = random_soup(150000, 42);  // large enough for parallel binning and subtrees
+    Bvh a, b;
+    tbb::task_arena one(1);
+    one.execute([&] { a.build(soup); });
+    b.build(soup);
+    ASSERT_EQ(a.nodes().size(), b.nodes().size());
+    for (size_t i = 0; i < a.nodes().size(); ++i) {
+        const BvhNode &x = a.nodes()[i], &y = b.nodes()[i];
+        ASSERT_TRUE(x.index == y.index && x.count == y.count && x.box.lo.x == y.box.lo.x && x.box.hi.z == y.box.hi.z)
+            << "node " << i;
+    }
+    EXPECT_EQ(a.prim_order(), b.prim_order());
+    check_structure(b, soup, {});
+    expect_matches_brute_force(b, soup, random_rays(200, 77, 10.0f));
+}
+
+TEST(Bvh, NonFiniteTrianglesAreSkipped) {
+    auto soup = random_soup(100, 9);
+    soup[3 * 10 + 1] = Vec3f(NAN, 0, 0);
+    soup[3 * 20 + 2] = Vec3f(0, INFINITY, 0);
+    Bvh bvh;
+    bvh.build(soup);
+    EXPECT_EQ(bvh.prim_order().size(), 98u);
+    for (uint32_t p : bvh.prim_order()) EXPECT_TRUE(p != 10 && p != 20);
+    EXPECT_TRUE(is_finite(bvh.bounds().lo) && is_finite(bvh.bounds().hi));
+    expect_matches_brute_force(bvh, soup, random_rays(1000, 10, 10.0f));
+}
+
+TEST(Bvh, BarycentricsReconstructTheHitPoint) {
+    const auto soup = random_soup(2000, 21, 5.0f, 1.0f);
+    Bvh bvh;
+    bvh.build(soup);
+    size_t hits = 0;
+    for (const Ray& r : random_rays(3000, 22, 5.0f)) {
+        Hit h;
+        if (!bvh.intersect(r, h)) continue;
+        ++hits;
+        EXPECT_GE(h.u, 0.0f);
+        EXPECT_GE(h.v, 0.0f);
+        EXPECT_LE(h.u + h.v, 1.0f + 1e-6f);
+        const Vec3f* v = &soup[3 * h.prim];
+        const Vec3f p = v[0] * (1.0f - h.u - h.v) + v[1] * h.u + v[2] * h.v;
+        const Vec3f q = r.o + r.d * h.t;
+        EXPECT_LT(length(p - q), 1e-4f * (1.0f + length(q))) << "prim " << h.prim;
+    }
+    EXPECT_GT(hits, 300u);
+}
+
+TEST(Bvh, InvalidRaysHitNothing) {
+    const auto soup = icosphere(2, 1.0f, Vec3f(0, 0, 0)).soup();
+    Bvh bvh;
+    bvh.build(soup);
+    const Vec3f o(0, 0, -5), d(0, 0, 1);
+    std::vector<Ray> bad;
+    auto make = [](Vec3f o_, Vec3f d_, float tmin, float tmax) {
+        Ray r;
+        r.o = o_; r.d = d_; r.tmin = tmin; r.tmax = tmax;
+        return r;
+    };
+    bad.push_back(make(Vec3f(NAN, 0, -5), d, 0, kInf));
+    bad.push_back(make(o, Vec3f(0, NAN, 1), 0, kInf));
+    bad.push_back(make(o, d, NAN, kInf));
+    bad.push_back(make(o, d, 0, NAN));
+    bad.push_back(make(o, d, 7.0f, 3.0f));        // tmin > tmax
+    bad.push_back(make(o, Vec3f(0, 0, 0), 0, kInf));
+    bad.push_back(make(o, Vec3f(-0.0f, 0.0f, -0.0f), 0, kInf));
+    bad.push_back(make(o, Vec3f(0, 0, INFINITY), 0, kInf));
+    bad.push_back(make(Vec3f(0, 0, -INFINITY), d, 0, kInf));
+    bad.push_back(make(o, d, 0, 3.0f));            // valid, but ends before the sphere
+    bad.push_back(make(o, d, 6.5f, kInf));         // valid, starts past the sphere
+    TraversalCounters c;
+    for (const Ray& r : bad) {
+        Hit h;
+        EXPECT_FALSE(bvh.intersect(r, h, &c));
+        EXPECT_FALSE(h.valid());
+        EXPECT_FALSE(bvh.occluded(r, &c));
+    }
+    EXPECT_EQ(c.rays, 2 * bad.size());
+    // Control: the same ray without the defect hits.
+    Hit h;
+    EXPECT_TRUE(bvh.intersect(make(o, d, 0, kInf), h));
+    EXPECT_NEAR(h.t, 4.0f, 0.05f);
+}
+
+TEST(Bvh, CountersAreFilled) {
+    const auto soup = random_soup(10000, 31);
+    Bvh bvh;
+    bvh.build(soup);
+    const auto rays = random_rays(1000, 32, 10.0f);
+    TraversalCounters c;
+    size_t hits = 0;
+    for (const Ray& r : rays) {
+        Hit h;
+        hits += bvh.intersect(r, h, &c);
+    }
+    EXPECT_EQ(c.rays, rays.size());
+    EXPECT_GT(c.node_visits, c.rays);
+    EXPECT_GE(c.box_tests, 2 * c.rays);  // at least the root pair per ray
+    EXPECT_GE(c.triangle_tests, hits);
+    // A BVH must be far cheaper than brute force.
+    EXPECT_LT(c.triangle_tests, rays.size() * soup.size() / 3 / 50);
+    TraversalCounters o;
+    for (const Ray& r : rays) bvh.occluded(r, &o);
+    EXPECT_EQ(o.rays, rays.size());
+    EXPECT_LE(o.triangle_tests, c.triangle_tests) << "any-hit never does more work than closest-hit";
+}
+
+// ---- the BVH over a real Scene ------------------------------------------------
+
+#include <filesystem>
+
+#include "io/gltf.h"
+#include "scene/scene.h"
+
+TEST(BvhScene, StanfordBunnyMatchesBruteForce) {
+    const std::string path = std::string(COHERENT_SHARED_SCENES) + "/stanford_bunny.glb";
+    if (!std::filesystem::exists(path)) GTEST_SKIP() << "public scene not found: " << path;
+    Scene scene;
+    const GltfLoadResult res = load_gltf(path, scene, 1.0f);
+    ASSERT_TRUE(res.ok) << res.error;
+    scene.finalize();
+    ASSERT_GT(scene.vertices.size(), 3000u);
+
+    Bvh bvh;
+    bvh.build(scene);
+    EXPECT_EQ(bvh.prim_order().size(), scene.vertices.size() / 3);
+    check_structure(bvh, scene.vertices, {});
+
+    // Rays from a sphere around the model toward random points of its box.
+    const BBox b = scene.bounds();
+    const Vec3f c = b.center();
+    const float r = length(b.extent());
+    std::mt19937 rng(2024);
+    std::uniform_real_distribution<float> unit(0.0f, 1.0f);
+    size_t hits = 0;
+    const int n = 400;
+    for (int i = 0; i < n; ++i) {
+        Ray ray;
+        ray.o = c + random_unit(rng) * r;
+        const Vec3f target = b.lo + b.extent() * Vec3f(unit(rng), unit(rng), unit(rng));
+        ray.d = target - ray.o;
+        const Hit expected = brute_force_closest(scene.vertices, ray);
+        Hit got;
+        ASSERT_EQ(bvh.intersect(ray, got), expected.valid()) << i;
+        EXPECT_EQ(bvh.occluded(ray), expected.valid()) << i;
+        if (!expected.valid()) continue;
+        ++hits;
+        EXPECT_EQ(got.prim, expected.prim) << i;
+        EXPECT_EQ(got.t, expected.t) << i;
+    }
+    EXPECT_GT(hits, static_cast<size_t>(n / 10));
+}
