@@ -20,6 +20,9 @@ struct GltfLoadResult {
 // (does not call scene.finalize()). A file with no camera gets a default that
 // frames the scene; one with no light at all gets a uniform white world.
 // `aspect` (width/height) is used to resolve the camera's image plane.
+// Never throws. When !ok the scene may hold part of the file: discard it.
+// Primitives that cannot be used (not triangles, broken accessors, Draco
+// compression) are skipped and listed in scene.dropped.skipped_meshes.
 GltfLoadResult load_gltf(const std::string& path, Scene& scene, float aspect = 1.0f);
 
 }  // namespace coherent

@@ -1,0 +1,195 @@
+#include "options.h"
+
+#include <charconv>
+#include <cstring>
+#include <sstream>
+
+namespace coherent::cli {
+namespace {
+
+// Strict integer parsing: the whole text must be a number within [lo, hi].
+template <typename Int>
+bool parse_integer(const char* text, Int lo, Int hi, const char* option, Int& out, std::string& error) {
+    const char* end = text + std::strlen(text);
+    Int value{};
+    const auto [ptr, ec] = std::from_chars(text, end, value);
+    if (ec == std::errc::result_out_of_range || (ec == std::errc() && ptr == end && (value < lo || value > hi))) {
+        error = std::string(option) + " must be between " + std::to_string(lo) + " and " + std::to_string(hi) +
+                ", got '" + text + "'";
+        return false;
+    }
+    if (ec != std::errc() || ptr != end || text == end) {
+        error = std::string(option) + " expects an integer, got '" + text + "'";
+        return false;
+    }
+    out = value;
+    return true;
+}
+
+// Upper limits keep a typo from asking for terabytes of film or years of work.
+constexpr int kMaxResolution = 1 << 14;
+constexpr int64_t kMaxPixels = int64_t(1) << 26;  // 8192 x 8192: ~3 GB of film
+constexpr int kMaxSpp = 1 << 20;
+constexpr int kMaxThreads = 4096;
+constexpr int kMaxBounces = 1024;
+
+bool parse_output(RenderOptions& o, const char* v, std::string&) {
+    o.output = v;
+    return true;
+}
+bool parse_spp(RenderOptions& o, const char* v, std::string& e) {
+    return parse_integer(v, 1, kMaxSpp, "--spp", o.settings.spp, e);
+}
+bool parse_seed(RenderOptions& o, const char* v, std::string& e) {
+    return parse_integer<uint64_t>(v, 0, UINT64_MAX, "--seed", o.settings.seed, e);
+}
+bool parse_threads(RenderOptions& o, const char* v, std::string& e) {
+    return parse_integer(v, 0, kMaxThreads, "--threads", o.settings.threads, e);
+}
+bool parse_max_bounces(RenderOptions& o, const char* v, std::string& e) {
+    return parse_integer(v, 0, kMaxBounces, "--max-bounces", o.settings.max_bounces, e);
+}
+bool parse_json(RenderOptions& o, const char*, std::string&) {
+    o.json = true;
+    return true;
+}
+bool parse_help(RenderOptions& o, const char*, std::string&) {
+    o.help = true;
+    return true;
+}
+
+// --res takes two values; the table gives one, so the parser receives
+// "W H" joined by a space (see parse_render_args).
+bool parse_res(RenderOptions& o, const char* v, std::string& e) {
+    const char* space = std::strchr(v, ' ');
+    const std::string w(v, space ? size_t(space - v) : std::strlen(v));
+    const std::string h(space ? space + 1 : "");
+    return parse_integer(w.c_str(), 1, kMaxResolution, "--res width", o.settings.width, e) &&
+           parse_integer(h.c_str(), 1, kMaxResolution, "--res height", o.settings.height, e);
+}
+
+const OptionSpec* find_option(const std::string& name) {
+    for (const OptionSpec& spec : render_option_table())
+        if (name == spec.name || (spec.alias && name == spec.alias)) return &spec;
+    return nullptr;
+}
+
+// How many values an option takes.
+int arity(const OptionSpec& spec) {
+    if (!spec.metavar) return 0;
+    return std::strchr(spec.metavar, ' ') ? 2 : 1;
+}
+
+}  // namespace
+
+const std::vector<OptionSpec>& render_option_table() {
+    // Defaults shown in the help come from RenderSettings itself so they cannot drift.
+    static const RenderSettings d;
+    static const std::vector<OptionSpec> table = {
+        {"--output", "-o", "FILE", "output image; .exr (Combined, Depth, Normal) or .png (Combined, sRGB)", parse_output},
+        {"--res", nullptr, "W H",
+         "resolution in pixels, up to 16384 a side and 8192x8192 in all (default " + std::to_string(d.width) + " " +
+             std::to_string(d.height) + ")",
+         parse_res},
+        {"--spp", nullptr, "N", "samples per pixel (default " + std::to_string(d.spp) + ")", parse_spp},
+        {"--seed", nullptr, "S", "random seed (default " + std::to_string(d.seed) + ")", parse_seed},
+        {"--threads", nullptr, "T", "worker threads, 0 = all cores (default " + std::to_string(d.threads) + ")",
+         parse_threads},
+        {"--max-bounces", nullptr, "B", "maximum path length in bounces (default " + std::to_string(d.max_bounces) + ")",
+         parse_max_bounces},
+        {"--json", nullptr, nullptr, "print render statistics as one JSON object on stdout", parse_json},
+        {"--help", "-h", nullptr, "show this help", parse_help},
+    };
+    return table;
+}
+
+bool parse_render_args(const std::vector<std::string>& args, RenderOptions& options, std::string& error) {
+    for (size_t i = 0; i < args.size(); ++i) {
+        const std::string& arg = args[i];
+        if (arg.size() > 1 && arg[0] == '-') {
+            // --name=value is accepted for single-value options.
+            std::string name = arg, inline_value;
+            bool has_inline = false;
+            if (const size_t eq = arg.find('='); arg.rfind("--", 0) == 0 && eq != std::string::npos) {
+                name = arg.substr(0, eq);
+                inline_value = arg.substr(eq + 1);
+                has_inline = true;
+            }
+            const OptionSpec* spec = find_option(name);
+            if (!spec) {
+                error = "unknown option '" + name + "'";
+                return false;
+            }
+            const int n = arity(*spec);
+            std::string value;
+            if (has_inline) {
+                if (n != 1) {
+                    error = std::string(spec->name) + (n == 0 ? " takes no value" : " takes " + std::to_string(n) + " values");
+                    return false;
+                }
+                value = inline_value;
+            } else {
+                for (int k = 0; k < n; ++k) {
+                    if (i + 1 >= args.size()) {
+                        error = std::string(spec->name) + " expects " + spec->metavar;
+                        return false;
+                    }
+                    value += (k ? " " : "") + args[++i];
+                }
+            }
+            if (!spec->parse(options, n ? value.c_str() : nullptr, error)) return false;
+            if (options.help) return true;
+        } else {
+            if (!options.scene.empty()) {
+                error = "more than one scene given ('" + options.scene + "' and '" + arg + "')";
+                return false;
+            }
+            options.scene = arg;
+        }
+    }
+    if (int64_t(options.settings.width) * options.settings.height > kMaxPixels) {
+        error = "--res " + std::to_string(options.settings.width) + " " + std::to_string(options.settings.height) +
+                " has more than " + std::to_string(kMaxPixels) + " pixels";
+        return false;
+    }
+    if (options.scene.empty()) {
+        error = "no scene file given";
+        return false;
+    }
+    if (options.output.empty()) {
+        error = "no output image given (-o FILE.exr or -o FILE.png)";
+        return false;
+    }
+    return true;
+}
+
+std::string main_usage() {
+    return "usage: coherent <command> [options]\n"
+           "\n"
+           "commands:\n"
+           "  render SCENE.glb -o OUT.exr|OUT.png [options]   render a glTF scene to an image\n"
+           "\n"
+           "options:\n"
+           "  --help, -h     show this help (coherent render --help for render options)\n"
+           "  --version      show version and build information\n";
+}
+
+std::string render_usage() {
+    std::ostringstream s;
+    s << "usage: coherent render SCENE.glb|SCENE.gltf -o OUT.exr|OUT.png [options]\n\n"
+      << "Renders the scene's first camera (or a default view framing the scene).\n"
+      << "Exit codes: 0 success, 1 bad input file or render/write failure, 2 bad usage,\n"
+      << "130 interrupted (Ctrl-C cancels the render and writes no image).\n\n"
+      << "options:\n";
+    for (const OptionSpec& spec : render_option_table()) {
+        std::string left = std::string("  ") + spec.name;
+        if (spec.alias) left += std::string(", ") + spec.alias;
+        if (spec.metavar) left += std::string(" ") + spec.metavar;
+        if (left.size() < 24) left.resize(24, ' ');
+        else left += "  ";
+        s << left << spec.help << '\n';
+    }
+    return s.str();
+}
+
+}  // namespace coherent::cli

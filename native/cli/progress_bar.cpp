@@ -1,0 +1,59 @@
+#include "progress_bar.h"
+
+#include <unistd.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <string>
+
+namespace coherent::cli {
+namespace {
+
+std::string format_duration(double seconds) {
+    if (!std::isfinite(seconds) || seconds < 0.0) return "--:--";
+    const long s = long(seconds + 0.5);
+    char buf[32];
+    if (s >= 3600) {
+        std::snprintf(buf, sizeof buf, "%ld:%02ld:%02ld", s / 3600, (s / 60) % 60, s % 60);
+    } else {
+        std::snprintf(buf, sizeof buf, "%02ld:%02ld", s / 60, s % 60);
+    }
+    return buf;
+}
+
+}  // namespace
+
+ProgressBar::ProgressBar() : enabled_(isatty(STDERR_FILENO) == 1) {}
+
+void ProgressBar::update(const Progress& p) {
+    if (!enabled_) return;
+    const auto now = std::chrono::steady_clock::now();
+    const bool last = p.samples_done >= p.samples_total;
+    if (drawn_ && !last && now - last_draw_ < std::chrono::milliseconds(100)) return;
+    last_draw_ = now;
+    drawn_ = true;
+
+    constexpr int kWidth = 30;
+    const double fraction = std::clamp(p.fraction, 0.0, 1.0);
+    const int filled = int(fraction * kWidth);
+    std::string bar(size_t(filled), '#');
+    bar.resize(kWidth, '.');
+    const double rays = p.stats ? double(p.stats->total_rays()) : 0.0;
+    const double mrays = p.seconds > 0.0 ? rays / p.seconds * 1e-6 : 0.0;
+    const double eta = fraction > 0.0 ? p.seconds * (1.0 - fraction) / fraction : NAN;
+    // \r returns to the line start; \033[K clears what a longer line left.
+    std::fprintf(stderr, "\r[%s] %3d%%  %d/%d spp  %.1f Mrays/s  ETA %s\033[K", bar.c_str(), int(fraction * 100.0),
+                 p.samples_done, p.samples_total, mrays, format_duration(eta).c_str());
+    std::fflush(stderr);
+}
+
+void ProgressBar::finish() {
+    if (enabled_ && drawn_) {
+        std::fputc('\n', stderr);
+        std::fflush(stderr);
+    }
+    drawn_ = false;
+}
+
+}  // namespace coherent::cli

@@ -1,0 +1,152 @@
+#include "render_command.h"
+
+#include <atomic>
+#include <chrono>
+#include <csignal>
+#include <cstdio>
+#include <exception>
+#include <memory>
+
+#include "io/gltf.h"
+#include "io/image.h"
+#include "json_report.h"
+#include "options.h"
+#include "progress_bar.h"
+#include "render/renderer.h"
+
+namespace coherent::cli {
+namespace {
+
+// SIGINT handling. The handler only touches lock-free atomics (allowed in a
+// signal handler): it records the interrupt and asks the live renderer, if
+// any, to cancel. SA_RESETHAND restores the default action, so a second
+// Ctrl-C kills the process at once if the first one is not honoured quickly.
+std::atomic<bool> g_interrupted{false};
+std::atomic<Renderer*> g_renderer{nullptr};
+static_assert(std::atomic<bool>::is_always_lock_free && std::atomic<Renderer*>::is_always_lock_free);
+
+extern "C" void on_sigint(int) {
+    g_interrupted.store(true, std::memory_order_relaxed);
+    if (Renderer* r = g_renderer.load(std::memory_order_relaxed)) r->cancel();
+}
+
+void install_sigint_handler() {
+    struct sigaction action {};
+    action.sa_handler = on_sigint;
+    sigemptyset(&action.sa_mask);
+    action.sa_flags = SA_RESETHAND;
+    sigaction(SIGINT, &action, nullptr);
+}
+
+// Publishes a renderer to the signal handler for as long as it lives.
+struct RendererRegistration {
+    explicit RendererRegistration(Renderer& r) {
+        g_renderer.store(&r);
+        if (g_interrupted.load()) r.cancel();  // interrupted before we registered
+    }
+    ~RendererRegistration() { g_renderer.store(nullptr); }
+};
+
+double seconds_since(std::chrono::steady_clock::time_point start) {
+    return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+}
+
+void print_error(const std::string& message) { std::fprintf(stderr, "coherent: error: %s\n", message.c_str()); }
+
+int interrupted() {
+    std::fprintf(stderr, "coherent: interrupted, no image written\n");
+    return kExitInterrupted;
+}
+
+int render(const RenderOptions& options) {
+    const RenderSettings& settings = options.settings;
+    install_sigint_handler();
+
+    // --- load ---------------------------------------------------------------
+    const auto load_start = std::chrono::steady_clock::now();
+    Scene scene;
+    const float aspect = float(settings.width) / float(settings.height);
+    const GltfLoadResult loaded = load_gltf(options.scene, scene, aspect);
+    if (!loaded.ok) {
+        print_error(loaded.error);
+        return kExitBadInput;
+    }
+    scene.finalize();
+    const double load_seconds = seconds_since(load_start);
+    if (!scene.dropped.empty()) std::fprintf(stderr, "coherent: warning: %s\n", scene.dropped.summary().c_str());
+    if (g_interrupted.load()) return interrupted();
+
+    // --- render -------------------------------------------------------------
+    const auto build_start = std::chrono::steady_clock::now();
+    Renderer renderer(scene, settings);
+    const double build_seconds = seconds_since(build_start);
+    RendererRegistration registration(renderer);
+
+    ProgressBar bar;
+    const auto render_start = std::chrono::steady_clock::now();
+    const bool finished = renderer.render([&](const Progress& p) {
+        bar.update(p);
+        return !g_interrupted.load(std::memory_order_relaxed);
+    });
+    const double render_seconds = seconds_since(render_start);
+    bar.finish();
+    if (!finished || g_interrupted.load()) return interrupted();
+
+    // --- write --------------------------------------------------------------
+    std::string error;
+    if (!write_film(options.output, renderer.film(), error)) {
+        print_error(error);
+        return kExitBadInput;
+    }
+
+    RenderReport report;
+    report.seconds = render_seconds;
+    report.load_seconds = load_seconds;
+    report.build_seconds = build_seconds;
+    report.settings = settings;
+    report.stats = renderer.stats();
+    report.dropped = scene.dropped;
+    report.features = renderer.active_features();
+    report.triangles = scene.triangle_count();
+    report.output = options.output;
+    if (options.json) {
+        std::printf("%s\n", render_report_json(report).c_str());
+    } else {
+        const double mrays = render_seconds > 0.0 ? double(report.stats.total_rays()) / render_seconds * 1e-6 : 0.0;
+        std::printf("coherent: wrote %s (%dx%d, %d spp, %.3f s, %.2f Mrays/s)\n", options.output.c_str(),
+                    settings.width, settings.height, settings.spp, render_seconds, mrays);
+    }
+    std::fflush(stdout);
+    return kExitOk;
+}
+
+}  // namespace
+
+int run_render(const std::vector<std::string>& args) {
+    RenderOptions options;
+    std::string error;
+    if (!parse_render_args(args, options, error)) {
+        print_error(error + " (see coherent render --help)");
+        return kExitBadUsage;
+    }
+    if (options.help) {
+        std::fputs(render_usage().c_str(), stdout);
+        return kExitOk;
+    }
+    // Refuse an unwritable format before spending time on the render.
+    if (image_format_for(options.output) == ImageFormat::Unknown) {
+        print_error("unknown output format '" + options.output + "' (use .exr or .png)");
+        return kExitBadUsage;
+    }
+    try {
+        return render(options);
+    } catch (const std::bad_alloc&) {
+        print_error("out of memory");
+        return kExitBadInput;
+    } catch (const std::exception& e) {
+        print_error(e.what());
+        return kExitBadInput;
+    }
+}
+
+}  // namespace coherent::cli

@@ -1,0 +1,356 @@
+"""Behaviour of the `coherent` command-line renderer.
+
+Run by ctest as `python3 -m pytest -q tests/cli` with COHERENT_CLI set to the
+built executable. Images are checked with `oiiotool` (openimageio-tools), an
+implementation independent of the one that wrote them.
+"""
+import base64
+import json
+import os
+import re
+import signal
+import struct
+import subprocess
+import time
+from pathlib import Path
+
+import pytest
+
+REPO = Path(__file__).resolve().parents[2]
+SCENES = REPO.parent / "shared" / "scenes"
+CORNELL = SCENES / "cornell_box.glb"
+
+
+@pytest.fixture(scope="session")
+def cli():
+    path = os.environ.get("COHERENT_CLI")
+    if not path:
+        pytest.fail("COHERENT_CLI must name the built coherent executable (ctest sets it)")
+    assert Path(path).is_file(), path
+    return path
+
+
+def run(cli, *args, timeout=300):
+    return subprocess.run([cli, *map(str, args)], capture_output=True, text=True, timeout=timeout)
+
+
+def one_line(text):
+    lines = text.strip("\n").split("\n")
+    return len(lines) == 1 and lines[0].strip() != ""
+
+
+def oiio_info(path):
+    """(width, height, channel names) as oiiotool reads the file."""
+    out = subprocess.run(["oiiotool", "--info", "-v", str(path)], capture_output=True, text=True, check=True).stdout
+    m = re.search(r":\s+(\d+)\s+x\s+(\d+),\s+(\d+) channel", out)
+    assert m, out
+    channels = re.search(r"channel list:\s*(.*)", out).group(1).split(", ")
+    return int(m.group(1)), int(m.group(2)), [c.strip() for c in channels]
+
+
+def oiio_pixels(path):
+    """{(x, y): [channel values]} as floats (PNG values normalised to [0,1])."""
+    out = subprocess.run(["oiiotool", "--dumpdata", str(path)], capture_output=True, text=True, check=True).stdout
+    pixels = {}
+    # Integer files print raw values then "(normalised floats)"; float files print floats.
+    for m in re.finditer(r"Pixel \((\d+), (\d+)\):([^(\n]*)(?:\(([^)]*)\))?", out):
+        values = m.group(4) if m.group(4) is not None else m.group(3)
+        pixels[(int(m.group(1)), int(m.group(2)))] = [float(v) for v in values.split()]
+    return pixels
+
+
+def write_gltf(path, positions, indices, extra_nodes=(), materials=None):
+    """A one-mesh .gltf with an embedded buffer (float32 positions, uint16 indices)."""
+    pos = struct.pack(f"<{len(positions)}f", *positions)
+    idx = struct.pack(f"<{len(indices)}H", *indices)
+    pad = b"\0" * ((4 - len(pos) % 4) % 4)
+    buf = pos + pad + idx
+    doc = {
+        "asset": {"version": "2.0"},
+        "buffers": [{"byteLength": len(buf),
+                     "uri": "data:application/octet-stream;base64," + base64.b64encode(buf).decode()}],
+        "bufferViews": [{"buffer": 0, "byteOffset": 0, "byteLength": len(pos)},
+                        {"buffer": 0, "byteOffset": len(pos) + len(pad), "byteLength": len(idx)}],
+        "accessors": [{"bufferView": 0, "componentType": 5126, "count": len(positions) // 3, "type": "VEC3"},
+                      {"bufferView": 1, "componentType": 5123, "count": len(indices), "type": "SCALAR"}],
+        "meshes": [{"name": "Quad", "primitives": [{"attributes": {"POSITION": 0}, "indices": 1}]}],
+        "nodes": [{"mesh": 0}, *extra_nodes],
+        "scenes": [{"nodes": list(range(1 + len(extra_nodes)))}],
+        "scene": 0,
+    }
+    if materials:
+        doc["materials"] = materials
+        doc["meshes"][0]["primitives"][0]["material"] = 0
+    path.write_text(json.dumps(doc))
+    return path
+
+
+# --- help and version -------------------------------------------------------
+
+def test_help(cli):
+    r = run(cli, "--help")
+    assert r.returncode == 0
+    assert "render" in r.stdout
+
+
+def test_render_help_lists_every_option(cli):
+    r = run(cli, "render", "--help")
+    assert r.returncode == 0
+    for option in ["-o", "--res", "--spp", "--seed", "--threads", "--max-bounces", "--json"]:
+        assert option in r.stdout, option
+
+
+def test_version(cli):
+    r = run(cli, "--version")
+    assert r.returncode == 0
+    assert re.search(r"coherent \d+\.\d+\.\d+", r.stdout)
+
+
+def test_no_arguments_is_bad_usage(cli):
+    assert run(cli).returncode == 2
+
+
+# --- bad usage: exit 2, one line, nothing written ----------------------------
+
+BAD_ARGS = [
+    ["frobnicate"],
+    ["render", "{scene}", "-o", "{out}", "--bogus"],
+    ["render", "{scene}", "-o", "{out}", "--spp"],
+    ["render", "{scene}", "-o", "{out}", "--spp", "abc"],
+    ["render", "{scene}", "-o", "{out}", "--spp", "4x"],
+    ["render", "{scene}", "-o", "{out}", "--spp", "0"],
+    ["render", "{scene}", "-o", "{out}", "--spp", "-3"],
+    ["render", "{scene}", "-o", "{out}", "--spp", "99999999999999999999"],
+    ["render", "{scene}", "-o", "{out}", "--res", "-5", "5"],
+    ["render", "{scene}", "-o", "{out}", "--res", "0", "64"],
+    ["render", "{scene}", "-o", "{out}", "--res", "64"],
+    ["render", "{scene}", "-o", "{out}", "--res", "16384", "16384"],
+    ["render", "{scene}", "-o", "{out}", "--res", "100000", "1"],
+    ["render", "{scene}", "-o", "{out}", "--res", "64", "x"],
+    ["render", "{scene}", "-o", "{out}", "--threads", "-1"],
+    ["render", "{scene}", "-o", "{out}", "--seed", "-1"],
+    ["render", "{scene}", "-o", "{out}", "--max-bounces", "many"],
+    ["render", "{scene}", "-o", "{out}", "--json=yes"],
+    ["render", "{scene}", "-o"],
+    ["render", "{scene}"],
+    ["render", "-o", "{out}"],
+    ["render", "{scene}", "{scene}", "-o", "{out}"],
+    ["render", "{scene}", "-o", "{stem}.jpg"],
+    ["render", "{scene}", "-o", "{stem}"],
+]
+
+
+@pytest.mark.parametrize("args", BAD_ARGS, ids=[" ".join(a[1:]) or a[0] for a in BAD_ARGS])
+def test_bad_arguments_exit_2_with_one_line(cli, tmp_path, args):
+    out = tmp_path / "out.png"
+    subst = {"scene": str(CORNELL), "out": str(out), "stem": str(tmp_path / "out")}
+    r = run(cli, *[a.format(**subst) for a in args])
+    assert r.returncode == 2, r.stderr
+    assert one_line(r.stderr), r.stderr
+    assert r.stdout == ""
+    assert list(tmp_path.iterdir()) == []
+
+
+# --- bad input: exit 1, one line naming the file, nothing written -------------
+
+def bad_inputs(tmp_path):
+    glb = CORNELL.read_bytes()
+    files = {
+        "missing.glb": None,
+        "empty.glb": b"",
+        "noise.glb": os.urandom(3000),
+        "truncated.glb": glb[: len(glb) // 2],
+        "header.glb": glb[:24],
+        "text.gltf": b"{ not json",
+        "dangling.gltf": json.dumps({"asset": {"version": "2.0"}, "nodes": [{"mesh": 4}],
+                                     "scenes": [{"nodes": [0]}]}).encode(),
+    }
+    paths = []
+    for name, data in files.items():
+        p = tmp_path / name
+        if data is not None:
+            p.write_bytes(data)
+        paths.append(p)
+    return paths
+
+
+def test_bad_input_files_exit_1_with_one_line(cli, tmp_path):
+    out_dir = tmp_path / "out"
+    out_dir.mkdir()
+    for scene in bad_inputs(tmp_path):
+        out = out_dir / "x.png"
+        r = run(cli, "render", scene, "-o", out, "--res", "8", "8", "--spp", "1", "--json")
+        assert r.returncode == 1, (scene.name, r.stderr)
+        assert one_line(r.stderr), r.stderr
+        assert str(scene) in r.stderr
+        assert r.stdout == ""
+        assert not out.exists()
+
+
+def test_unwritable_output_exits_1(cli, tmp_path):
+    out = tmp_path / "no" / "such" / "dir" / "x.png"
+    r = run(cli, "render", CORNELL, "-o", out, "--res", "8", "8", "--spp", "1")
+    assert r.returncode == 1
+    assert one_line(r.stderr), r.stderr
+    assert str(out) in r.stderr
+
+
+# --- rendering ---------------------------------------------------------------
+
+@pytest.fixture(scope="module")
+def cornell_renders(cli, tmp_path_factory):
+    """The Cornell box at 64x64, 4 spp, to PNG and EXR, with --json."""
+    d = tmp_path_factory.mktemp("cornell")
+    results = {}
+    for ext in ("png", "exr"):
+        out = d / f"cornell.{ext}"
+        r = run(cli, "render", CORNELL, "-o", out, "--res", 64, 64, "--spp", 4, "--seed", 7, "--json")
+        results[ext] = (out, r)
+    return results
+
+
+@pytest.mark.parametrize("ext", ["png", "exr"])
+def test_render_json_statistics(cornell_renders, ext):
+    out, r = cornell_renders[ext]
+    assert r.returncode == 0, r.stderr
+    assert r.stderr == ""  # no progress bar off a terminal, nothing dropped
+    stats = json.loads(r.stdout)  # exactly one JSON document on stdout
+    assert isinstance(stats, dict)
+    for key in ["seconds", "spp", "width", "height", "rays", "mrays_per_s", "dropped",
+                "nonfinite_samples", "features", "output"]:
+        assert key in stats, key
+    assert stats["spp"] == 4
+    assert (stats["width"], stats["height"]) == (64, 64)
+    assert stats["output"] == str(out)
+    rays = stats["rays"]
+    assert rays["camera"] == 64 * 64 * 4
+    assert rays["total"] == sum(v for k, v in rays.items() if k != "total")
+    # Diffuse walls and an emitter: no glass, so no refraction rays at all.
+    assert rays.get("refraction", 0) == 0
+    assert "glass" not in stats["features"]
+    assert "emissive_meshes" in stats["features"]
+    assert rays["total"] > rays["camera"]  # light transport beyond primary rays
+    assert stats["seconds"] > 0 and stats["mrays_per_s"] > 0
+    assert stats["nonfinite_samples"] == 0
+    dropped = stats["dropped"]
+    assert dropped == {"nonfinite_vertices": 0, "out_of_range_indices": 0, "degenerate_triangles": 0,
+                       "bad_material_ids": 0, "skipped_meshes": []}
+
+
+def test_png_output_is_readable_and_lit(cornell_renders):
+    out, r = cornell_renders["png"]
+    assert r.returncode == 0, r.stderr
+    w, h, channels = oiio_info(out)
+    assert (w, h) == (64, 64)
+    assert channels == ["R", "G", "B", "A"]
+    px = oiio_pixels(out)
+    assert len(px) == 64 * 64
+    mean = sum(sum(v[:3]) for v in px.values()) / (3 * len(px))
+    assert mean > 0.1, mean  # sRGB-encoded: a lit box, not black
+    assert all(v[3] == 1.0 for v in px.values())  # every pixel sees the box
+    # Left wall is red and right wall green (image row 0 is the top).
+    # Albedos (0.63, 0.065, 0.05) and (0.14, 0.45, 0.091): linear ratios ~10 and
+    # ~3.2, about 3 and 1.6 after sRGB encoding.
+    left = [px[(x, y)] for x in range(1, 6) for y in range(24, 40)]
+    right = [px[(x, y)] for x in range(59, 64) for y in range(24, 40)]
+    assert sum(p[0] for p in left) > 2 * sum(p[1] for p in left)
+    assert sum(p[1] for p in right) > 1.2 * sum(p[0] for p in right)
+
+
+def test_exr_output_has_all_passes(cornell_renders):
+    out, r = cornell_renders["exr"]
+    assert r.returncode == 0, r.stderr
+    w, h, channels = oiio_info(out)
+    assert (w, h) == (64, 64)
+    for c in ["R", "G", "B", "A", "Z", "N.X", "N.Y", "N.Z"]:
+        assert c in channels, channels
+    px = oiio_pixels(out)
+    index = {c: i for i, c in enumerate(channels)}
+    # Pixel (40, 16) sees the back wall (z = -1, above the tall box) from z = 6.8:
+    # depth ~7.8 along the view axis and normal facing the camera.
+    centre = px[(40, 16)]
+    assert 6.0 < centre[index["Z"]] < 8.0
+    assert abs(centre[index["N.Z"]]) > 0.9
+    mean = sum(sum(v[index[c]] for c in "RGB") for v in px.values()) / (3 * len(px))
+    assert mean > 0.02, mean
+    for v in px.values():
+        assert all(abs(x) < 1e11 for x in v)  # finite everywhere
+
+
+def test_plain_mode_prints_summary(cli, tmp_path):
+    out = tmp_path / "plain.png"
+    r = run(cli, "render", CORNELL, "-o", out, "--res", 16, 16, "--spp", 1)
+    assert r.returncode == 0, r.stderr
+    assert one_line(r.stdout) and str(out) in r.stdout
+    assert out.exists()
+
+
+def test_dropped_input_is_one_warning_and_in_json(cli, tmp_path):
+    # A quad in front of the default camera, plus one triangle with index 9 of 4.
+    scene = write_gltf(tmp_path / "bad_index.gltf", [-1, -1, 0, 1, -1, 0, 1, 1, 0, -1, 1, 0],
+                       [0, 1, 2, 0, 2, 3, 0, 9, 3])
+    out = tmp_path / "bad_index.png"
+    r = run(cli, "render", scene, "-o", out, "--res", 16, 16, "--spp", 1, "--json")
+    assert r.returncode == 0, r.stderr
+    assert one_line(r.stderr) and "warning" in r.stderr, r.stderr
+    stats = json.loads(r.stdout)
+    assert stats["dropped"]["out_of_range_indices"] == 1
+    # No light in the file: the uniform white world lights the quad.
+    px = oiio_pixels(out)
+    assert sum(v[0] for v in px.values()) / len(px) > 0.2
+
+
+def test_seed_and_threads_reach_the_renderer(cli, tmp_path):
+    """Same seed: the same image whatever the thread count; another seed: a different one."""
+    images = {}
+    for name, seed, threads in [("a", 5, 1), ("b", 5, 2), ("c", 6, 2)]:
+        out = tmp_path / f"{name}.exr"
+        r = run(cli, "render", CORNELL, "-o", out, "--res", 24, 24, "--spp", 2, "--seed", seed,
+                "--threads", threads, "--json")
+        assert r.returncode == 0, r.stderr
+        assert json.loads(r.stdout)["seed"] == seed
+        images[name] = oiio_pixels(out)
+    assert images["a"] == images["b"]
+    assert images["a"] != images["c"]
+
+
+def test_max_bounces_reaches_the_renderer(cli, tmp_path):
+    totals = {}
+    for bounces in (0, 8):
+        r = run(cli, "render", CORNELL, "-o", tmp_path / f"b{bounces}.png", "--res", 16, 16, "--spp", 2,
+                "--max-bounces", bounces, "--json")
+        assert r.returncode == 0, r.stderr
+        stats = json.loads(r.stdout)
+        assert stats["max_bounces"] == bounces
+        totals[bounces] = stats["rays"]["total"]
+    # Longer paths in a closed box: more rays (same seed, same camera rays).
+    assert totals[0] < totals[8]
+
+
+def test_sigint_cancels_without_writing(cli, tmp_path):
+    out = tmp_path / "interrupted.exr"
+    proc = subprocess.Popen([cli, "render", str(CORNELL), "-o", str(out), "--res", "256", "256",
+                             "--spp", "100000", "--json"],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    # Wait until the process catches SIGINT (bit 1 of SigCgt in /proc), so a
+    # slow start on a busy machine cannot turn this into a plain kill; then
+    # let the render itself run a while.
+    deadline = time.monotonic() + 30
+    while time.monotonic() < deadline and proc.poll() is None:
+        status = Path(f"/proc/{proc.pid}/status").read_text()
+        caught = int(re.search(r"SigCgt:\s*([0-9a-f]+)", status).group(1), 16)
+        if caught & (1 << (signal.SIGINT - 1)):
+            break
+        time.sleep(0.05)
+    time.sleep(1.0)
+    assert proc.poll() is None, proc.communicate()
+    proc.send_signal(signal.SIGINT)
+    try:
+        stdout, stderr = proc.communicate(timeout=20)
+    except subprocess.TimeoutExpired:
+        proc.kill()
+        pytest.fail("render did not stop within 20 s of SIGINT")
+    assert proc.returncode == 130, stderr
+    assert stdout == ""
+    assert one_line(stderr), stderr
+    assert not out.exists()
