@@ -21,6 +21,12 @@ struct RenderSettings {
     int glossy_bounces = 4;
     int transmission_bounces = 12;
     int rr_min_bounces = 3;             // Russian roulette starts after this many bounces
+    // Blender's Light Paths > Clamping (0 = off). Each light contribution is
+    // scaled so its largest component is at most the limit; "direct" means
+    // it left the camera's first hit (or was seen directly), as in Cycles.
+    // Biased, off by default; Blender's own defaults are 0 and 10.
+    float clamp_direct = 0.0f;
+    float clamp_indirect = 0.0f;
 
     bool transparent_film = false;      // Film > Transparent: world seen directly gives alpha 0
     bool force_all_features = false;    // ignore SceneFeatures specialisation (benchmarks)

@@ -6,6 +6,7 @@
 // shading path and SceneFeatures can tell from the parameters which lobes exist.
 #pragma once
 
+#include <algorithm>
 #include <array>
 #include <cstdint>
 #include <string>
@@ -25,6 +26,28 @@ struct Closure {
     float transmission = 0.0f;  // [0,1] blend opaque -> glass (for the non-metal part)
     float ior = 1.45f;          // index of refraction for transmission
 };
+
+// Roughness at or below which a GGX lobe is a perfect mirror / smooth glass
+// (delta). Cycles treats alpha_x * alpha_y <= 1e-7 as sharp, i.e. roughness^4
+// <= 1e-7, roughness <= 0.01778.
+constexpr float kSharpRoughness = 0.01778f;
+
+// Lobe weights of a closure as Blender 3.4's Principled BSDF (Cycles) forms
+// them: diffuse and the specular layer are added, not layered.
+struct ClosureLobes {
+    float diffuse = 0.0f;       // weight of Lambert(base_color)
+    float specular = 0.0f;      // weight of the GGX reflection layer (dielectric + metal)
+    float transmission = 0.0f;  // weight of the GGX glass lobe
+};
+inline ClosureLobes closure_lobes(const Closure& c) {
+    const float metallic = std::clamp(c.metallic, 0.0f, 1.0f);
+    const float transmission = std::clamp(c.transmission, 0.0f, 1.0f) * (1.0f - metallic);
+    ClosureLobes l;
+    l.diffuse = (1.0f - metallic) * (1.0f - std::clamp(c.transmission, 0.0f, 1.0f));
+    l.transmission = transmission;
+    l.specular = (c.specular > 1e-5f || metallic > 1e-5f) ? 1.0f - transmission : 0.0f;
+    return l;
+}
 
 struct Material {
     std::string name;

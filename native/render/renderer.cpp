@@ -1,0 +1,161 @@
+// The Renderer: pass-by-pass progressive rendering over tiles with TBB.
+//
+// Determinism: every random number is keyed by (full-frame pixel, sample,
+// dimension), every pixel belongs to exactly one tile, and passes run one
+// after another, so the film is bit-identical for any thread count.
+// Statistics are accumulated per thread (enumerable_thread_specific) and
+// merged after each pass: no atomics in the per-ray path.
+#include "renderer.h"
+
+#include <tbb/blocked_range.h>
+#include <tbb/enumerable_thread_specific.h>
+#include <tbb/parallel_for.h>
+#include <tbb/task_arena.h>
+
+#include <chrono>
+#include <thread>
+
+#include "light_sampling.h"
+#include "path_tracer.h"
+
+namespace coherent {
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+struct TileJob {
+    const PathContext* ctx;
+    const SptSampler* sampler;
+    Film* film;
+    int x0, y0, x1, y1;  // full-frame pixel rectangle, half-open
+    int border_x0, border_y0;
+    uint32_t sample;
+    const std::atomic<bool>* cancelled;
+};
+
+// Renders one sample for every pixel of one tile; returns early on cancel.
+template <bool kGlass, bool kDepthOfField, bool kLights>
+void render_tile(const TileJob& job, RenderStats& st) {
+    for (int y = job.y0; y < job.y1; ++y) {
+        if (job.cancelled->load(std::memory_order_relaxed)) return;
+        for (int x = job.x0; x < job.x1; ++x) {
+            const PathSampler<SptSampler> ps(*job.sampler, uint32_t(x), uint32_t(y), job.sample);
+            const PathOutput o = trace_path<SptSampler, kGlass, kDepthOfField, kLights>(*job.ctx, ps, x, y, st);
+            // No NaN/Inf ever reaches the film: discard the whole sample and count it.
+            if (!is_finite(o.radiance) || !std::isfinite(o.alpha) || std::isnan(o.depth) || !is_finite(o.normal)) {
+                ++st.nonfinite_samples;
+                continue;
+            }
+            job.film->add_sample(x - job.border_x0, y - job.border_y0, o.radiance, o.alpha, o.depth, o.normal);
+            ++st.samples;
+        }
+    }
+}
+
+using TileFn = void (*)(const TileJob&, RenderStats&);
+
+template <bool G, bool D, bool L>
+constexpr TileFn tile_fn() { return &render_tile<G, D, L>; }
+
+TileFn select_kernel(const SceneFeatures& f, bool has_lights) {
+    static constexpr TileFn table[2][2][2] = {
+        {{tile_fn<false, false, false>(), tile_fn<false, false, true>()},
+         {tile_fn<false, true, false>(), tile_fn<false, true, true>()}},
+        {{tile_fn<true, false, false>(), tile_fn<true, false, true>()},
+         {tile_fn<true, true, false>(), tile_fn<true, true, true>()}},
+    };
+    return table[f.glass ? 1 : 0][f.depth_of_field ? 1 : 0][has_lights ? 1 : 0];
+}
+
+}  // namespace
+
+Renderer::Renderer(const Scene& scene, const RenderSettings& settings) : scene_(scene), settings_(settings) {
+    features_ = settings_.force_all_features ? SceneFeatures::all() : scene_.features;
+    // Clamp the border to the frame; an empty border renders nothing.
+    settings_.width = std::max(settings_.width, 1);
+    settings_.height = std::max(settings_.height, 1);
+    if (settings_.border_x1 < 0 || settings_.border_x1 > settings_.width) settings_.border_x1 = settings_.width;
+    if (settings_.border_y1 < 0 || settings_.border_y1 > settings_.height) settings_.border_y1 = settings_.height;
+    settings_.border_x0 = std::clamp(settings_.border_x0, 0, settings_.border_x1);
+    settings_.border_y0 = std::clamp(settings_.border_y0, 0, settings_.border_y1);
+    settings_.tile_size = std::max(settings_.tile_size, 1);
+    bvh_.build(scene_);
+    film_ = Film(settings_.border_width(), settings_.border_height());
+}
+
+Renderer::~Renderer() = default;
+
+bool Renderer::render(const ProgressCallback& progress) {
+    const auto start = Clock::now();
+    const LightSet lights(scene_);
+    const PathContext ctx{&scene_, &bvh_, &lights, &settings_};
+    const SptSampler sampler(settings_.seed);
+    // Without any emitter no path can carry light: the kernel without NEE,
+    // light hits and world MIS is exact. force_all_features keeps it on.
+    const bool use_lights = settings_.force_all_features || (!lights.empty() && features_.any_light());
+    const TileFn kernel = select_kernel(features_, use_lights);
+
+    const int bw = settings_.border_width(), bh = settings_.border_height();
+    const int ts = settings_.tile_size;
+    const int tiles_x = (bw + ts - 1) / ts, tiles_y = (bh + ts - 1) / ts;
+    const int tiles = tiles_x * tiles_y;
+    const int spp = std::max(settings_.spp, 0);
+
+    tbb::task_arena arena(settings_.threads > 0 ? settings_.threads : tbb::task_arena::automatic);
+    const std::thread::id caller = std::this_thread::get_id();
+    auto last_report = Clock::now();
+    const auto report_interval = std::chrono::milliseconds(250);
+
+    auto seconds_since_start = [&] { return std::chrono::duration<double>(Clock::now() - start).count(); };
+    auto report = [&](int samples_done, double fraction) {
+        stats_.seconds = seconds_since_start();
+        if (!progress) return;
+        Progress p;
+        p.samples_done = samples_done;
+        p.samples_total = spp;
+        p.fraction = fraction;
+        p.seconds = stats_.seconds;
+        p.stats = &stats_;
+        if (!progress(p)) cancel();
+        last_report = Clock::now();
+    };
+
+    for (int pass = 0; pass < spp && !cancelled() && tiles > 0; ++pass) {
+        tbb::enumerable_thread_specific<RenderStats> local;
+        std::atomic<int> tiles_done{0};
+        arena.execute([&] {
+            tbb::parallel_for(tbb::blocked_range<int>(0, tiles, 1), [&](const tbb::blocked_range<int>& r) {
+                RenderStats& st = local.local();
+                for (int t = r.begin(); t != r.end(); ++t) {
+                    if (cancelled()) return;
+                    TileJob job;
+                    job.ctx = &ctx;
+                    job.sampler = &sampler;
+                    job.film = &film_;
+                    job.x0 = settings_.border_x0 + (t % tiles_x) * ts;
+                    job.y0 = settings_.border_y0 + (t / tiles_x) * ts;
+                    job.x1 = std::min(job.x0 + ts, settings_.border_x1);
+                    job.y1 = std::min(job.y0 + ts, settings_.border_y1);
+                    job.border_x0 = settings_.border_x0;
+                    job.border_y0 = settings_.border_y0;
+                    job.sample = uint32_t(pass);
+                    job.cancelled = &cancelled_;
+                    kernel(job, st);
+                    const int done = tiles_done.fetch_add(1, std::memory_order_relaxed) + 1;
+                    // Periodic progress within a long pass, always on the calling
+                    // thread (which takes part in the parallel loop).
+                    if (std::this_thread::get_id() == caller && Clock::now() - last_report >= report_interval)
+                        report(pass, (pass + double(done) / tiles) / spp);
+                }
+            });
+        });
+        for (const RenderStats& s : local) stats_ += s;
+        if (cancelled()) break;
+        report(pass + 1, double(pass + 1) / spp);
+    }
+    stats_.seconds = seconds_since_start();
+    return !cancelled();
+}
+
+}  // namespace coherent

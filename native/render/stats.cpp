@@ -1,0 +1,28 @@
+// Render statistics.
+#include "stats.h"
+
+namespace coherent {
+
+const char* ray_type_name(RayType t) {
+    switch (t) {
+        case RayType::Camera: return "camera";
+        case RayType::Shadow: return "shadow";
+        case RayType::Diffuse: return "diffuse";
+        case RayType::Glossy: return "glossy";
+        case RayType::Reflection: return "reflection";
+        case RayType::Refraction: return "refraction";
+        case RayType::Count: break;
+    }
+    return "unknown";
+}
+
+RenderStats& RenderStats::operator+=(const RenderStats& o) {
+    for (size_t i = 0; i < rays.size(); ++i) rays[i] += o.rays[i];
+    traversal += o.traversal;
+    nonfinite_samples += o.nonfinite_samples;
+    samples += o.samples;
+    // seconds is wall-clock time of the whole render, not a per-thread sum.
+    return *this;
+}
+
+}  // namespace coherent

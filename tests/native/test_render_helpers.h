@@ -1,0 +1,124 @@
+// Small scene builders and statistics shared by the render tests.
+#pragma once
+
+#include <cmath>
+#include <vector>
+
+#include "film/film.h"
+#include "render/renderer.h"
+#include "scene/scene.h"
+
+namespace coherent::test {
+
+inline Material diffuse_material(const Vec3f& color, const char* name = "diffuse") {
+    Material m;
+    m.name = name;
+    m.closures[0].base_color = color;
+    m.closures[0].specular = 0.0f;
+    m.closures[0].metallic = 0.0f;
+    m.closures[0].roughness = 0.5f;
+    return m;
+}
+
+inline Material emission_material(const Vec3f& radiance) {
+    Material m = diffuse_material(Vec3f(0.0f), "emission");
+    m.emission = radiance;
+    return m;
+}
+
+// Axis-aligned quad in the plane through `center` spanned by unit vectors
+// (u, v), extents su x sv, facing cross(u, v).
+inline void add_quad(Scene& s, const Vec3f& center, const Vec3f& u, const Vec3f& v, float su, float sv,
+                     uint32_t material, const char* name = "quad") {
+    const Vec3f a = center - u * (0.5f * su) - v * (0.5f * sv);
+    const Vec3f b = center + u * (0.5f * su) - v * (0.5f * sv);
+    const Vec3f c = center + u * (0.5f * su) + v * (0.5f * sv);
+    const Vec3f d = center - u * (0.5f * su) + v * (0.5f * sv);
+    const float pos[] = {a.x, a.y, a.z, b.x, b.y, b.z, c.x, c.y, c.z, d.x, d.y, d.z};
+    const uint32_t idx[] = {0, 1, 2, 0, 2, 3};
+    MeshInput m;
+    m.name = name;
+    m.positions = pos;
+    m.vertex_count = 4;
+    m.indices = idx;
+    m.triangle_count = 2;
+    m.material_slots = {material};
+    s.add_mesh(m);
+}
+
+// UV sphere with smooth per-corner normals.
+inline void add_sphere(Scene& s, const Vec3f& center, float radius, uint32_t material, int rings = 48,
+                       int segments = 96) {
+    std::vector<float> pos;
+    for (int r = 0; r <= rings; ++r) {
+        const float theta = kPi * float(r) / float(rings);
+        for (int k = 0; k < segments; ++k) {
+            const float phi = 2.0f * kPi * float(k) / float(segments);
+            pos.push_back(center.x + radius * std::sin(theta) * std::cos(phi));
+            pos.push_back(center.y + radius * std::sin(theta) * std::sin(phi));
+            pos.push_back(center.z + radius * std::cos(theta));
+        }
+    }
+    std::vector<uint32_t> idx;
+    std::vector<float> nrm;
+    auto vid = [&](int r, int k) { return uint32_t(r * segments + (k % segments)); };
+    auto push = [&](uint32_t a, uint32_t b, uint32_t c) {
+        for (uint32_t i : {a, b, c}) {
+            idx.push_back(i);
+            const Vec3f p{pos[3 * i], pos[3 * i + 1], pos[3 * i + 2]};
+            const Vec3f n = normalize(p - center);
+            nrm.insert(nrm.end(), {n.x, n.y, n.z});
+        }
+    };
+    for (int r = 0; r < rings; ++r)
+        for (int k = 0; k < segments; ++k) {
+            // Outward winding: (p00, p10, p11) has normal along +radius.
+            if (r != 0) push(vid(r, k), vid(r + 1, k), vid(r, k + 1));
+            if (r != rings - 1) push(vid(r, k + 1), vid(r + 1, k), vid(r + 1, k + 1));
+        }
+    MeshInput m;
+    m.name = "sphere";
+    m.positions = pos.data();
+    m.vertex_count = pos.size() / 3;
+    m.indices = idx.data();
+    m.triangle_count = idx.size() / 3;
+    m.normals = nrm.data();
+    m.material_slots = {material};
+    s.add_mesh(m);
+}
+
+inline Camera ortho_camera_looking_down(float height, float half_extent) {
+    Camera c;
+    c.projection = Projection::Orthographic;
+    c.position = {0.0f, 0.0f, height};
+    c.right = {1.0f, 0.0f, 0.0f};
+    c.up = {0.0f, 1.0f, 0.0f};
+    c.forward = {0.0f, 0.0f, -1.0f};
+    c.half_width = c.half_height = half_extent;
+    return c;
+}
+
+struct MeanVar {
+    double mean = 0.0, var = 0.0;  // var: sample variance of the values
+    size_t n = 0;
+    double stderr_of_mean() const { return n > 1 ? std::sqrt(var / double(n)) : 0.0; }
+};
+
+inline MeanVar mean_var(const std::vector<double>& v) {
+    MeanVar r;
+    r.n = v.size();
+    for (double x : v) r.mean += x;
+    r.mean /= double(std::max<size_t>(r.n, 1));
+    for (double x : v) r.var += (x - r.mean) * (x - r.mean);
+    r.var /= double(std::max<size_t>(r.n, 2) - 1);
+    return r;
+}
+
+inline std::vector<float> render_combined(const Scene& scene, const RenderSettings& rs, RenderStats* stats = nullptr) {
+    Renderer r(scene, rs);
+    r.render();
+    if (stats) *stats = r.stats();
+    return r.film().resolve(PassType::Combined);
+}
+
+}  // namespace coherent::test
