@@ -53,6 +53,10 @@ bool parse_json(RenderOptions& o, const char*, std::string&) {
     o.json = true;
     return true;
 }
+bool parse_all_features(RenderOptions& o, const char*, std::string&) {
+    o.settings.force_all_features = true;
+    return true;
+}
 bool parse_help(RenderOptions& o, const char*, std::string&) {
     o.help = true;
     return true;
@@ -98,6 +102,10 @@ const std::vector<OptionSpec>& render_option_table() {
         {"--max-bounces", nullptr, "B", "maximum path length in bounces (default " + std::to_string(d.max_bounces) + ")",
          parse_max_bounces},
         {"--json", nullptr, nullptr, "print render statistics as one JSON object on stdout", parse_json},
+        {"--all-features", nullptr, nullptr,
+         "run the general kernel with every effect on instead of the one specialised for this scene's features "
+         "(same image; for measuring what specialisation buys)",
+         parse_all_features},
         {"--help", "-h", nullptr, "show this help", parse_help},
     };
     return table;
