@@ -49,7 +49,7 @@ echo "$ZIP"
 step "Installing and enabling the add-on in Blender's user configuration"
 blender -b --python-exit-code 1 --python-expr "
 import bpy, sys
-bpy.ops.preferences.addon_install(overwrite=True, filepath=r'''$ROOT/$ZIP''')
+bpy.ops.preferences.addon_install(overwrite=True, filepath=r'''$ZIP''')
 bpy.ops.preferences.addon_enable(module='coherent')
 import coherent
 bpy.ops.wm.save_userpref()
