@@ -2,7 +2,7 @@
 // on the same rays.
 //
 //   coherent-bench SCENE.glb [--threads N] [--json] [--width W] [--height H]
-//                  [--runs R] [--ao-samples S]
+//                  [--runs R] [--ao-samples S] [--spatial-budget F]
 //
 // Ray sets (all generated once, from our own closest hits, and replayed
 // identically through both implementations):
@@ -58,13 +58,22 @@ struct Options {
     int height = 768;
     int runs = 3;
     int ao_samples = 16;
+    float spatial_budget = BvhBuildOptions{}.spatial_split_budget;
+    // Build tuning, for experiments (defaults: BvhBuildOptions).
+    int bins = BvhBuildOptions{}.bins;
+    int max_leaf = BvhBuildOptions{}.max_leaf_size;
+    float traversal_cost = BvhBuildOptions{}.traversal_cost;
+    float spatial_alpha = BvhBuildOptions{}.spatial_split_alpha;
+    std::string only;  // time only this ray set (empty: all)
 };
 
 [[noreturn]] void usage(const char* msg) {
     if (msg) std::fprintf(stderr, "coherent-bench: %s\n", msg);
     std::fprintf(stderr,
                  "usage: coherent-bench SCENE.glb [--threads N] [--json] [--width W] [--height H] [--runs R] "
-                 "[--ao-samples S]\n");
+                 "[--ao-samples S] [--spatial-budget F]\n"
+                 "       [--bins B] [--max-leaf L] [--traversal-cost C] [--spatial-alpha A]   (build tuning, for experiments)\n"
+                 "       [--only primary|ao|diffuse]\n");
     std::exit(2);
 }
 
@@ -92,7 +101,28 @@ Options parse(int argc, char** argv) {
         else if (a == "--height") o.height = parse_int(value("--height"), "--height", 1, 16384);
         else if (a == "--runs") o.runs = parse_int(value("--runs"), "--runs", 1, 100);
         else if (a == "--ao-samples") o.ao_samples = parse_int(value("--ao-samples"), "--ao-samples", 1, 1024);
-        else if (a == "-h" || a == "--help") usage(nullptr);
+        else if (a == "--spatial-budget") {
+            char* end = nullptr;
+            const char* v = value("--spatial-budget");
+            o.spatial_budget = std::strtof(v, &end);
+            if (!end || *end || !(o.spatial_budget >= 0.0f && o.spatial_budget <= 4.0f))
+                usage("--spatial-budget must be a number in [0, 4]");
+        } else if (a == "--bins") o.bins = parse_int(value("--bins"), "--bins", 2, 64);
+        else if (a == "--only") o.only = value("--only");
+        else if (a == "--max-leaf") o.max_leaf = parse_int(value("--max-leaf"), "--max-leaf", 1, 64);
+        else if (a == "--spatial-alpha") {
+            char* end = nullptr;
+            const char* v = value("--spatial-alpha");
+            o.spatial_alpha = std::strtof(v, &end);
+            if (!end || *end || !(o.spatial_alpha >= 0.0f && o.spatial_alpha <= 1.0f))
+                usage("--spatial-alpha must be a number in [0, 1]");
+        } else if (a == "--traversal-cost") {
+            char* end = nullptr;
+            const char* v = value("--traversal-cost");
+            o.traversal_cost = std::strtof(v, &end);
+            if (!end || *end || !(o.traversal_cost > 0.0f && o.traversal_cost < 100.0f))
+                usage("--traversal-cost must be a number in (0, 100)");
+        } else if (a == "-h" || a == "--help") usage(nullptr);
         else if (!a.empty() && a[0] == '-') usage(("unknown option " + a).c_str());
         else if (o.scene_path.empty()) o.scene_path = a;
         else usage("more than one scene given");
@@ -271,6 +301,7 @@ double best_seconds(int runs, int threads, const std::string& label, const std::
 struct Row {
     std::string rays, impl;
     double mrays = 0.0;
+    double ratio_avx2 = -1.0;  // coherent rows: against Embree restricted to AVX2
     double agreement = -1.0;  // fraction of rays where both agree (coherent rows)
     double box_tests = -1.0, tri_tests = -1.0;  // per ray (coherent rows)
 };
@@ -305,17 +336,28 @@ int main(int argc, char** argv) {
     Bvh bvh;
     {
         Progress p("building coherent BVH");
-        arena.execute([&] { bvh.build(scene); });
+        BvhBuildOptions bo;
+        bo.spatial_split_budget = opt.spatial_budget;
+        bo.bins = opt.bins;
+        bo.max_leaf_size = opt.max_leaf;
+        bo.traversal_cost = opt.traversal_cost;
+        bo.spatial_split_alpha = opt.spatial_alpha;
+        arena.execute([&] { bvh.build(scene, bo); });
     }
     const BvhBuildStats& bs = bvh.build_stats();
     std::fprintf(table, "scene %s: %zu triangles, %d x %d, %d thread(s)\n", name.c_str(), tris, opt.width,
                  opt.height, opt.threads);
-    std::fprintf(table, "  coherent build: %.3f s, %zu nodes, %zu leaves, depth %d, %.1f bytes/triangle\n",
-                 bs.seconds, bs.nodes, bs.leaves, bs.depth, double(bs.bytes) / tris);
+    std::fprintf(table,
+                 "  coherent build: %.3f s, %zu nodes, %zu leaves, depth %d, %.1f bytes/triangle, %zu references "
+                 "(spatial-split budget %.2f)\n",
+                 bs.seconds, bs.nodes, bs.leaves, bs.depth, double(bs.bytes) / tris, bs.references,
+                 double(opt.spatial_budget));
     if (opt.json)
         std::printf("{\"scene\": \"%s\", \"rays\": \"build\", \"impl\": \"coherent\", \"threads\": %d, "
-                    "\"build_seconds\": %.4f, \"bytes_per_triangle\": %.2f, \"triangles\": %zu}\n",
-                    name.c_str(), opt.threads, bs.seconds, double(bs.bytes) / tris, tris);
+                    "\"build_seconds\": %.4f, \"bytes_per_triangle\": %.2f, \"triangles\": %zu, \"references\": %zu, "
+                    "\"spatial_split_budget\": %.2f}\n",
+                    name.c_str(), opt.threads, bs.seconds, double(bs.bytes) / tris, tris, bs.references,
+                    double(opt.spatial_budget));
 
 #ifdef COHERENT_HAVE_EMBREE
     const std::string config = "threads=" + std::to_string(opt.threads);
@@ -331,6 +373,21 @@ int main(int argc, char** argv) {
         std::printf("{\"scene\": \"%s\", \"rays\": \"build\", \"impl\": \"embree\", \"threads\": %d, "
                     "\"build_seconds\": %.4f}\n",
                     name.c_str(), opt.threads, embree->build_seconds());
+    // The same build restricted to AVX2 kernels: Embree picks AVX-512 where
+    // the CPU has it, while our kernels are AVX2; this is the same-ISA column.
+    const std::string config_avx2 = config + ",isa=avx2";
+    std::unique_ptr<EmbreeReference> embree_avx2;
+    {
+        Progress p("building Embree scene (high quality, AVX2)");
+        embree_avx2 = std::make_unique<EmbreeReference>(scene.vertices.data(), tris, config_avx2.c_str(), false,
+                                                        RTC_BUILD_QUALITY_HIGH);
+    }
+    std::fprintf(table, "  embree build:   %.3f s (RTC_BUILD_QUALITY_HIGH, %s)\n", embree_avx2->build_seconds(),
+                 config_avx2.c_str());
+    if (opt.json)
+        std::printf("{\"scene\": \"%s\", \"rays\": \"build\", \"impl\": \"embree-avx2\", \"threads\": %d, "
+                    "\"build_seconds\": %.4f}\n",
+                    name.c_str(), opt.threads, embree_avx2->build_seconds());
 #endif
 
     const RaySets sets = make_rays(scene, bvh, opt);
@@ -349,7 +406,7 @@ int main(int argc, char** argv) {
     for (const SetDesc& set : descs) {
         const std::vector<Ray>& rays = *set.rays;
         const size_t n = rays.size();
-        if (n == 0) continue;
+        if (n == 0 || (!opt.only.empty() && opt.only != set.name)) continue;
         std::vector<Hit> ours(n);
         std::vector<uint8_t> ours_occ(n);
 
@@ -406,33 +463,49 @@ int main(int argc, char** argv) {
             }
         }
         ro.agreement = double(agree) / n;
+        const double t_embree_avx2 =
+            best_seconds(opt.runs, opt.threads, std::string(set.name) + ": embree (avx2)", [&] {
+                run_blocks(n, opt.threads, [&](size_t b, size_t e) {
+                    if (set.occlusion)
+                        for (size_t i = b; i < e; ++i) theirs_occ[i] = embree_avx2->occluded(rays[i]);
+                    else
+                        for (size_t i = b; i < e; ++i) {
+                            theirs[i] = Hit{};
+                            embree_avx2->intersect(rays[i], theirs[i]);
+                        }
+                });
+            });
+        ro.ratio_avx2 = t_embree_avx2 / t_ours;
         std::fprintf(table, "  %s: %zu rays, disagreements: hit only by coherent %zu, only by embree %zu, t differs %zu\n",
                      set.name, n, only_ours, only_theirs, t_differs);
         rows.push_back(ro);
         rows.push_back(Row{set.name, "embree", n / t_embree * 1e-6});
+        rows.push_back(Row{set.name, "embree-avx2", n / t_embree_avx2 * 1e-6});
 #else
         rows.push_back(ro);
 #endif
     }
 
-    std::fprintf(table, "\n  %-16s %-8s %-9s %10s %8s %10s %10s %10s\n", "scene", "rays", "impl", "Mrays/s", "ratio",
-                 "agree", "box/ray", "tri/ray");
+    std::fprintf(table, "\n  %-16s %-8s %-12s %10s %8s %10s %10s %10s %10s\n", "scene", "rays", "impl", "Mrays/s",
+                 "ratio", "ratio-avx2", "agree", "box/ray", "tri/ray");
     for (const Row& r : rows) {
         double ratio = -1.0;
         for (const Row& o : rows)
             if (o.rays == r.rays && o.impl == "embree" && r.impl == "coherent") ratio = r.mrays / o.mrays;
-        char ratio_s[16] = "", agree_s[16] = "", box_s[16] = "", tri_s[16] = "";
+        char ratio_s[16] = "", ratio2_s[16] = "", agree_s[16] = "", box_s[16] = "", tri_s[16] = "";
         if (ratio >= 0) std::snprintf(ratio_s, sizeof ratio_s, "%.2f", ratio);
+        if (r.ratio_avx2 >= 0) std::snprintf(ratio2_s, sizeof ratio2_s, "%.2f", r.ratio_avx2);
         if (r.agreement >= 0) std::snprintf(agree_s, sizeof agree_s, "%.5f", r.agreement);
         if (r.box_tests >= 0) std::snprintf(box_s, sizeof box_s, "%.1f", r.box_tests);
         if (r.tri_tests >= 0) std::snprintf(tri_s, sizeof tri_s, "%.1f", r.tri_tests);
-        std::fprintf(table, "  %-16s %-8s %-9s %10.2f %8s %10s %10s %10s\n", name.c_str(), r.rays.c_str(),
-                     r.impl.c_str(), r.mrays, ratio_s, agree_s, box_s, tri_s);
+        std::fprintf(table, "  %-16s %-8s %-12s %10.2f %8s %10s %10s %10s %10s\n", name.c_str(), r.rays.c_str(),
+                     r.impl.c_str(), r.mrays, ratio_s, ratio2_s, agree_s, box_s, tri_s);
         if (opt.json) {
             std::printf("{\"scene\": \"%s\", \"rays\": \"%s\", \"impl\": \"%s\", \"traversal\": \"single\", "
                         "\"threads\": %d, \"mrays_per_s\": %.3f",
                         name.c_str(), r.rays.c_str(), r.impl.c_str(), opt.threads, r.mrays);
             if (ratio >= 0) std::printf(", \"ratio_vs_embree\": %.3f", ratio);
+            if (r.ratio_avx2 >= 0) std::printf(", \"ratio_vs_embree_avx2\": %.3f", r.ratio_avx2);
             if (r.agreement >= 0) std::printf(", \"agreement\": %.6f", r.agreement);
             if (r.box_tests >= 0)
                 std::printf(", \"box_tests_per_ray\": %.2f, \"triangle_tests_per_ray\": %.2f", r.box_tests,

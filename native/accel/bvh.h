@@ -1,5 +1,6 @@
-// Binary BVH over the scene's triangles: build (bvh_build.cpp) is separate
-// from traversal (traverse_single.cpp). The binary tree (nodes()) is the
+// Binary BVH over the scene's triangles: build (bvh_build.cpp; with spatial
+// splits, the default, bvh_build_spatial.cpp) is separate from traversal
+// (traverse_single.cpp). The binary tree (nodes()) is the
 // portable result; single-ray traversal runs on a private 8-wide collapse of
 // it (bvh_layout.h, bvh_layout.cpp). Later layers add packets and streams
 // over the same tree; every kernel must return identical closest hits for
@@ -51,6 +52,15 @@ struct BvhBuildOptions {
     // Triangles tested together by one SIMD leaf test: the SAH charges a leaf
     // ceil(n / leaf_simd_width) intersections, so leaves fill whole packs.
     int leaf_simd_width = 4;
+    // Spatial splits (SBVH, Stich et al. 2009; bvh_build_spatial.h): at most
+    // this fraction of the triangle count in extra leaf references (0 turns
+    // spatial splits off and selects the plain binned SAH builder). With
+    // spatial splits a triangle may appear in several leaves, each leaf box
+    // bounding the triangle's part inside it.
+    float spatial_split_budget = 0.3f;
+    // Spatial splits are tried only where the object split's children overlap
+    // by more than this fraction of the root's surface area (Stich's alpha).
+    float spatial_split_alpha = 1e-3f;
 };
 
 struct BvhBuildStats {
@@ -59,6 +69,7 @@ struct BvhBuildStats {
     size_t leaves = 0;
     size_t bytes = 0;  // nodes + reordered triangle data
     int depth = 0;
+    size_t references = 0;  // leaf slots (prim_order().size()): triangles plus spatial-split duplicates
 };
 
 class Bvh {
@@ -84,7 +95,8 @@ public:
     BBox bounds() const { return nodes_.empty() ? BBox{} : nodes_[0].box; }
     bool empty() const { return nodes_.empty(); }
 
-    // Leaf slot -> scene triangle index (leaves index into this order).
+    // Leaf slot -> scene triangle index (leaves index into this order). With
+    // spatial splits a triangle may occupy several slots (in different leaves).
     const std::vector<uint32_t>& prim_order() const { return prim_order_; }
 
 private:

@@ -1,5 +1,7 @@
 // Binned SAH builder for the binary BVH (Wald 2007, "On fast Construction of
-// SAH-based Bounding Volume Hierarchies"), parallel with TBB.
+// SAH-based Bounding Volume Hierarchies"), parallel with TBB. Used when
+// spatial splits are off (spatial_split_budget == 0); otherwise build_from
+// hands the work to the spatial-split builder (bvh_build_spatial.h).
 //
 // Determinism: the output depends only on the input triangles, never on the
 // thread count or scheduling. Subtrees are built in parallel into disjoint,
@@ -18,6 +20,7 @@
 
 #include "../scene/scene.h"
 #include "bvh.h"
+#include "bvh_build_spatial.h"
 
 namespace coherent {
 
@@ -293,7 +296,10 @@ void Bvh::build_from(const Vec3f* verts, size_t triangle_count, const BvhBuildOp
         if (valid[i]) refs.push_back(static_cast<uint32_t>(i));
     const uint32_t n = static_cast<uint32_t>(refs.size());
 
-    if (n > 0) {
+    if (n > 0 && opt.spatial_split_budget > 0.0f) {
+        build_spatial_bvh(verts, refs, opt, nodes_, prim_order_, stats_);
+        build_traversal_layout(verts);
+    } else if (n > 0) {
         const RootBounds root = tbb::parallel_reduce(
             tbb::blocked_range<uint32_t>(0, n, kGrainSize), RootBounds{},
             [&](const tbb::blocked_range<uint32_t>& r, RootBounds acc) {
@@ -341,6 +347,7 @@ void Bvh::build_from(const Vec3f* verts, size_t triangle_count, const BvhBuildOp
         }
 
         prim_order_ = std::move(refs);
+        stats_.references = prim_order_.size();
         build_traversal_layout(verts);
     }
 

@@ -12,6 +12,8 @@
 //    written with the slab term first (_mm256_max_ps/_mm256_min_ps return the
 //    second operand when either is NaN), so that slab does not restrict the
 //    interval: conservative.
+//  - rays whose products all stay finite use an equally conservative fused
+//    form, fma(plane, 1/d, -o/d rounded outward) (see BoxRay).
 // Triangle test: the watertight test of triangle.h on four triangles at once,
 // with the same operations in the same order, hence bit-identical results;
 // lanes that need the double-precision fallback go through the scalar code.
@@ -62,25 +64,64 @@ bool valid_ray(const Ray& r) {
 }
 
 // Per-ray constants of the eight-box slab test.
+//
+// Two forms of the same conservative test:
+//  - exact (Ize): (plane - o) * (1/d), valid for every ray, including zero
+//    direction components (infinite 1/d) and any magnitude;
+//  - fused: fma(plane, 1/d, -c), one instruction per plane (as in Embree's
+//    fast path), where c is o * (1/d) rounded *outward*: c_hi >= o/d for near
+//    planes and c_lo <= o/d for far planes. Then the only rounding left is the
+//    fma's own (relative, like Ize's), so the near distance never exceeds
+//    the exact one by more than 1 ulp and the far distance never falls short
+//    of it by more than 1 ulp, which the (1 + 2 gamma(3)) far scaling covers.
+//    The widening by c's error is |o/d| * 2^-22 in t, i.e. boxes grow by a
+//    few ulps of the origin's coordinates: a rare extra visit, never a miss.
+//    Used only where every product stays finite: all 1/d finite and
+//    |1/d| * max(|o|, scene magnitude) <= 2^100, so no plane of the scene
+//    (or the origin) overflows.
 struct BoxRay {
     __m256 ox, oy, oz;  // splatted origin
     __m256 ix, iy, iz;  // splatted 1/d (+-inf for +-0)
+    __m256 chx, chy, chz;  // fused form: o/d rounded up (near planes)
+    __m256 clx, cly, clz;  // fused form: o/d rounded down (far planes)
+    bool fused = false;
     // Byte offsets of the near and far plane arrays in a WideNode8: the near
     // plane is lo for 1/d >= 0 and hi for 1/d < 0 (sign bit, so -0 counts as <0).
     uint32_t nx, ny, nz, fx, fy, fz;
 
-    explicit BoxRay(const Ray& r) {
-        const Vec3f inv(1.0f / r.d.x, 1.0f / r.d.y, 1.0f / r.d.z);
-        ox = _mm256_set1_ps(r.o.x); oy = _mm256_set1_ps(r.o.y); oz = _mm256_set1_ps(r.o.z);
-        ix = _mm256_set1_ps(inv.x); iy = _mm256_set1_ps(inv.y); iz = _mm256_set1_ps(inv.z);
+    // `o4`, `inv4`: the origin and 1 / d (lanes x, y, z; lane 3 unused).
+    // `magnitude`: the largest absolute coordinate of the scene's bounds.
+    BoxRay(__m128 o4, __m128 inv4, float magnitude) {
+        alignas(16) float o[4], inv[4], ch[4], cl[4];
+        _mm_store_ps(o, o4);
+        _mm_store_ps(inv, inv4);
+        ox = _mm256_set1_ps(o[0]); oy = _mm256_set1_ps(o[1]); oz = _mm256_set1_ps(o[2]);
+        ix = _mm256_set1_ps(inv[0]); iy = _mm256_set1_ps(inv[1]); iz = _mm256_set1_ps(inv[2]);
+        const __m128 sign = _mm_set1_ps(-0.0f);
+        // |fl(o * inv) - o * inv| <= 2^-24 |fl(o * inv)| (1 + 2^-23); a margin
+        // of 2^-22 |e| survives the rounding of the addition (+ 2^-126 for an
+        // e so small that o * inv rounds with an absolute error).
+        const __m128 e = _mm_mul_ps(o4, inv4);
+        const __m128 margin =
+            _mm_add_ps(_mm_mul_ps(_mm_andnot_ps(sign, e), _mm_set1_ps(0x1p-22f)), _mm_set1_ps(0x1p-126f));
+        _mm_store_ps(ch, _mm_add_ps(e, margin));
+        _mm_store_ps(cl, _mm_sub_ps(e, margin));
+        // |1/d| * max(|o|, magnitude, 1) <= 2^100 on x, y and z (an infinite
+        // 1/d, or an overflowing product, fails the comparison).
+        const __m128 m = _mm_max_ps(_mm_max_ps(_mm_andnot_ps(sign, o4), _mm_set1_ps(magnitude)), _mm_set1_ps(1.0f));
+        const __m128 reach = _mm_mul_ps(_mm_andnot_ps(sign, inv4), m);
+        fused = (_mm_movemask_ps(_mm_cmple_ps(reach, _mm_set1_ps(0x1p100f))) & 7) == 7;
+        chx = _mm256_set1_ps(ch[0]); chy = _mm256_set1_ps(ch[1]); chz = _mm256_set1_ps(ch[2]);
+        clx = _mm256_set1_ps(cl[0]); cly = _mm256_set1_ps(cl[1]); clz = _mm256_set1_ps(cl[2]);
+        const Vec3f inv3(inv[0], inv[1], inv[2]);
         constexpr uint32_t lo = offsetof(WideNode8, lo), hi = offsetof(WideNode8, hi);
         constexpr uint32_t axis = sizeof(float) * kWideWidth;
-        nx = (std::signbit(inv.x) ? hi : lo) + 0 * axis;
-        ny = (std::signbit(inv.y) ? hi : lo) + 1 * axis;
-        nz = (std::signbit(inv.z) ? hi : lo) + 2 * axis;
-        fx = (std::signbit(inv.x) ? lo : hi) + 0 * axis;
-        fy = (std::signbit(inv.y) ? lo : hi) + 1 * axis;
-        fz = (std::signbit(inv.z) ? lo : hi) + 2 * axis;
+        nx = (std::signbit(inv3.x) ? hi : lo) + 0 * axis;
+        ny = (std::signbit(inv3.y) ? hi : lo) + 1 * axis;
+        nz = (std::signbit(inv3.z) ? hi : lo) + 2 * axis;
+        fx = (std::signbit(inv3.x) ? lo : hi) + 0 * axis;
+        fy = (std::signbit(inv3.y) ? lo : hi) + 1 * axis;
+        fz = (std::signbit(inv3.z) ? lo : hi) + 2 * axis;
     }
 };
 
@@ -89,13 +130,24 @@ inline __m256 load_planes(const WideNode8& n, uint32_t offset) {
 }
 
 // Tests the eight children of `n`; returns the hit mask and their entry distances.
+template <bool kFused>
 inline int intersect_wide(const WideNode8& n, const BoxRay& r, float tmin, float tmax, __m256& entry) {
-    const __m256 tnx = _mm256_mul_ps(_mm256_sub_ps(load_planes(n, r.nx), r.ox), r.ix);
-    const __m256 tny = _mm256_mul_ps(_mm256_sub_ps(load_planes(n, r.ny), r.oy), r.iy);
-    const __m256 tnz = _mm256_mul_ps(_mm256_sub_ps(load_planes(n, r.nz), r.oz), r.iz);
-    const __m256 tfx = _mm256_mul_ps(_mm256_sub_ps(load_planes(n, r.fx), r.ox), r.ix);
-    const __m256 tfy = _mm256_mul_ps(_mm256_sub_ps(load_planes(n, r.fy), r.oy), r.iy);
-    const __m256 tfz = _mm256_mul_ps(_mm256_sub_ps(load_planes(n, r.fz), r.oz), r.iz);
+    __m256 tnx, tny, tnz, tfx, tfy, tfz;
+    if constexpr (kFused) {
+        tnx = _mm256_fmsub_ps(load_planes(n, r.nx), r.ix, r.chx);
+        tny = _mm256_fmsub_ps(load_planes(n, r.ny), r.iy, r.chy);
+        tnz = _mm256_fmsub_ps(load_planes(n, r.nz), r.iz, r.chz);
+        tfx = _mm256_fmsub_ps(load_planes(n, r.fx), r.ix, r.clx);
+        tfy = _mm256_fmsub_ps(load_planes(n, r.fy), r.iy, r.cly);
+        tfz = _mm256_fmsub_ps(load_planes(n, r.fz), r.iz, r.clz);
+    } else {
+        tnx = _mm256_mul_ps(_mm256_sub_ps(load_planes(n, r.nx), r.ox), r.ix);
+        tny = _mm256_mul_ps(_mm256_sub_ps(load_planes(n, r.ny), r.oy), r.iy);
+        tnz = _mm256_mul_ps(_mm256_sub_ps(load_planes(n, r.nz), r.oz), r.iz);
+        tfx = _mm256_mul_ps(_mm256_sub_ps(load_planes(n, r.fx), r.ox), r.ix);
+        tfy = _mm256_mul_ps(_mm256_sub_ps(load_planes(n, r.fy), r.oy), r.iy);
+        tfz = _mm256_mul_ps(_mm256_sub_ps(load_planes(n, r.fz), r.oz), r.iz);
+    }
     // Slab term first: _mm256_max_ps/_mm256_min_ps return the second operand
     // when either is NaN, so a NaN slab leaves the accumulator unchanged.
     const __m256 tnear = _mm256_max_ps(tnz, _mm256_max_ps(tny, _mm256_max_ps(tnx, _mm256_set1_ps(tmin))));
@@ -112,7 +164,7 @@ struct TriRay {
     WatertightRay w;
     __m128 okx, oky, okz;  // origin in the permuted axes
     __m128 sx, sy, sz;
-    explicit TriRay(const Ray& r) : w(r.o, r.d) {
+    TriRay(const Ray& r, const Vec3f& inv) : w(r.o, r.d, inv) {
         okx = _mm_set1_ps(r.o[w.kx]);
         oky = _mm_set1_ps(r.o[w.ky]);
         okz = _mm_set1_ps(r.o[w.kz]);
@@ -207,40 +259,51 @@ inline bool intersect_pack(const TrianglePack4& p, int lanes, const TriRay& r, f
     return found;
 }
 
-}  // namespace
+// Tests a leaf's packs. Any hit: true on the first hit. Closest hit: true
+// when `best` improved. (Kept inline: an out-of-line leaf test and loop cost
+// ~10% on primary rays, see docs/results/traversal_foundation.md.)
+template <bool kAnyHit>
+inline bool intersect_leaf(const TrianglePack4* packs, uint32_t first_pack, uint32_t count, const TriRay& r,
+                           float tmin, Closest& best) {
+    bool found = false;
+    for (uint32_t k = 0; count > 0; ++k) {
+        const int lanes = count >= 4 ? 4 : static_cast<int>(count);
+        found |= intersect_pack<kAnyHit>(packs[first_pack + k], lanes, r, tmin, best);
+        if (kAnyHit && found) return true;
+        count -= lanes;
+    }
+    return found;
+}
 
-template <bool kAnyHit, bool kCount>
-bool Bvh::traverse(const Ray& ray, Hit* hit, TraversalCounters* counters) const {
-    if constexpr (kCount) ++counters->rays;
-    if (wide_.empty() || !valid_ray(ray)) return false;
+// A stack entry is a child: an interior node (count 0) or a leaf.
+struct Entry {
+    uint32_t ref, count;
+    float t;
+};
 
-    const BoxRay box_ray(ray);
-    const TriRay tri_ray(ray);
-    const WideNode8* nodes = wide_.data();
-    const TrianglePack4* packs = packs_.data();
-    const float tmin = ray.tmin;
-    Closest best;
-    best.t = ray.tmax;  // shrinks to the closest hit so far (inclusive)
-
-    // A stack entry is a child: an interior node (count 0) or a leaf.
-    struct Entry {
-        uint32_t ref, count;
-        float t;
-    };
+// The traversal loop, for one form of the box test (see BoxRay). `best.t`
+// starts at the ray's tmax and shrinks to the closest hit so far (inclusive).
+// Forced inline into Bvh::traverse: a call per ray costs primary rays.
+template <bool kAnyHit, bool kCount, bool kFused>
+__attribute__((always_inline)) inline bool traverse_wide(const WideNode8* nodes, const TrianglePack4* packs,
+                                                         const BoxRay& box_ray, const TriRay& tri_ray, float tmin,
+                                                         Closest& best, TraversalCounters* counters) {
+    // Boxes farther than this cannot hold a closer hit; recomputed only when
+    // a leaf moved best.t (any-hit queries never change it).
+    float cull = cull_distance(best.t);
     Entry stack[kStackSize];
     int sp = 0;
     Entry current{0, 0, tmin};  // the root node, whose own box is the union of its children's
 
-    // Tests a leaf's packs; true answers an any-hit query.
+    // Tests a leaf; true answers an any-hit query.
     auto leaf = [&](uint32_t first_pack, uint32_t count) {
         if constexpr (kCount) {
             ++counters->node_visits;
             counters->triangle_tests += count;
         }
-        for (uint32_t k = 0; count > 0; ++k) {
-            const int lanes = count >= 4 ? 4 : static_cast<int>(count);
-            if (intersect_pack<kAnyHit>(packs[first_pack + k], lanes, tri_ray, tmin, best) && kAnyHit) return true;
-            count -= lanes;
+        if (intersect_leaf<kAnyHit>(packs, first_pack, count, tri_ray, tmin, best)) {
+            if constexpr (kAnyHit) return true;
+            cull = cull_distance(best.t);
         }
         return false;
     };
@@ -251,7 +314,7 @@ bool Bvh::traverse(const Ray& ray, Hit* hit, TraversalCounters* counters) const 
         } else {
             const WideNode8& n = nodes[current.ref];
             __m256 entry_v;
-            int mask = intersect_wide(n, box_ray, tmin, cull_distance(best.t), entry_v);
+            int mask = intersect_wide<kFused>(n, box_ray, tmin, cull, entry_v);
             if constexpr (kCount) {
                 ++counters->node_visits;
                 const __m256i refs = _mm256_load_si256(reinterpret_cast<const __m256i*>(n.ref));
@@ -260,25 +323,25 @@ bool Bvh::traverse(const Ray& ray, Hit* hit, TraversalCounters* counters) const 
                 counters->box_tests += static_cast<uint64_t>(kWideWidth - __builtin_popcount(empty));
             }
             if (mask != 0) {
-                alignas(32) float entry[kWideWidth];
-                _mm256_store_ps(entry, entry_v);
-                if ((mask & (mask - 1)) == 0) {
-                    // One child: no stack traffic.
-                    const int c = __builtin_ctz(mask);
-                    current = {n.ref[c], n.count[c], entry[c]};
-                    continue;
-                }
-                const int base = sp;
                 if constexpr (kAnyHit) {
-                    // Any hit: test leaf children right away (a hit ends the
-                    // query, and a leaf needs no further node load); push
-                    // interior children in any order.
+                    // Any hit: the entry distances do not matter (nothing
+                    // is culled by distance below tmax, which the box test
+                    // already applied), so they are not kept.
+                    if ((mask & (mask - 1)) == 0) {
+                        const int c = __builtin_ctz(mask);
+                        current = {n.ref[c], n.count[c], tmin};
+                        continue;
+                    }
+                    const int base = sp;
+                    // Test leaf children right away (a hit ends the query, and
+                    // a leaf needs no further node load); push interior
+                    // children in any order.
                     for (; mask; mask &= mask - 1) {
                         const int c = __builtin_ctz(mask);
                         if (n.count[c] != 0) {
                             if (leaf(n.ref[c], n.count[c])) return true;
                         } else {
-                            stack[sp++] = {n.ref[c], 0, entry[c]};
+                            stack[sp++] = {n.ref[c], 0, tmin};
                         }
                     }
                     if (sp > base) {
@@ -286,6 +349,15 @@ bool Bvh::traverse(const Ray& ray, Hit* hit, TraversalCounters* counters) const 
                         continue;
                     }
                 } else {
+                    alignas(32) float entry[kWideWidth];
+                    _mm256_store_ps(entry, entry_v);
+                    if ((mask & (mask - 1)) == 0) {
+                        // One child: no stack traffic.
+                        const int c = __builtin_ctz(mask);
+                        current = {n.ref[c], n.count[c], entry[c]};
+                        continue;
+                    }
+                    const int base = sp;
                     // Closest hit: push farthest first so the nearest is popped first.
                     for (; mask; mask &= mask - 1) {
                         const int c = __builtin_ctz(mask);
@@ -305,14 +377,39 @@ bool Bvh::traverse(const Ray& ray, Hit* hit, TraversalCounters* counters) const 
         }
         // Pop the next subtree that can still hold a closer hit.
         while (true) {
-            if (sp == 0) goto done;
+            if (sp == 0) return false;
             current = stack[--sp];
-            if (current.t <= cull_distance(best.t)) break;
+            if (kAnyHit || current.t <= cull) break;
         }
     }
-done:
+}
+
+}  // namespace
+
+template <bool kAnyHit, bool kCount>
+bool Bvh::traverse(const Ray& ray, Hit* hit, TraversalCounters* counters) const {
+    if constexpr (kCount) ++counters->rays;
+    if (wide_.empty() || !valid_ray(ray)) return false;
+
+    const BBox& root = nodes_[0].box;
+    // 1/d once, for both tests (one vector division, correctly rounded per lane
+    // like the scalar one).
+    const __m128 inv4 = _mm_div_ps(_mm_set1_ps(1.0f), _mm_setr_ps(ray.d.x, ray.d.y, ray.d.z, 1.0f));
+    alignas(16) float inv_lanes[4];
+    _mm_store_ps(inv_lanes, inv4);
+    const Vec3f inv(inv_lanes[0], inv_lanes[1], inv_lanes[2]);
+    const BoxRay box_ray(_mm_setr_ps(ray.o.x, ray.o.y, ray.o.z, 0.0f), inv4,
+                         std::max(max_component(abs(root.lo)), max_component(abs(root.hi))));
+    const TriRay tri_ray(ray, inv);
+    Closest best;
+    best.t = ray.tmax;
+    const bool any = box_ray.fused
+                         ? traverse_wide<kAnyHit, kCount, true>(wide_.data(), packs_.data(), box_ray, tri_ray,
+                                                                ray.tmin, best, counters)
+                         : traverse_wide<kAnyHit, kCount, false>(wide_.data(), packs_.data(), box_ray, tri_ray,
+                                                                 ray.tmin, best, counters);
     if constexpr (kAnyHit) {
-        return false;
+        return any;
     } else {
         if (best.prim == kInvalidPrim) return false;
         hit->t = best.t;

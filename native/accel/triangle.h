@@ -32,7 +32,14 @@ struct WatertightRay {
 
     WatertightRay() = default;
     // Precondition: d is finite and non-zero (checked by the kernels).
-    WatertightRay(const Vec3f& origin, const Vec3f& d) : o(origin) {
+    WatertightRay(const Vec3f& origin, const Vec3f& d) : WatertightRay(origin, d, 1.0f / d[max_dimension(abs(d))], true) {}
+    // The same constants from a precomputed 1 / d[kz] (bit-identical, since
+    // division is correctly rounded): for kernels that already have 1/d.
+    WatertightRay(const Vec3f& origin, const Vec3f& d, const Vec3f& inv)
+        : WatertightRay(origin, d, inv[max_dimension(abs(d))], true) {}
+
+private:
+    WatertightRay(const Vec3f& origin, const Vec3f& d, float inv_dz, bool) : o(origin) {
         const Vec3f ad = abs(d);
         kz = max_dimension(ad);
         kx = kz == 2 ? 0 : kz + 1;
@@ -45,9 +52,12 @@ struct WatertightRay {
             kx = ky;
             ky = tmp;
         }
-        sx = d[kx] / d[kz];
-        sy = d[ky] / d[kz];
-        sz = 1.0f / d[kz];
+        // One reciprocal, then products: any per-ray shear constants keep the
+        // test watertight (every triangle sees the same ones), and the
+        // traversal kernels reuse the slab test's 1/d for sz.
+        sz = inv_dz;
+        sx = d[kx] * sz;
+        sy = d[ky] * sz;
     }
 };
 

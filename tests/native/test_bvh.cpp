@@ -22,6 +22,45 @@ bool box_contains(const BBox& outer, const BBox& inner) {
            outer.hi.x >= inner.hi.x && outer.hi.y >= inner.hi.y && outer.hi.z >= inner.hi.z;
 }
 
+bool box_contains_point(const BBox& b, const Vec3f& p, float tol) {
+    for (int a = 0; a < 3; ++a)
+        if (!(p[a] >= b.lo[a] - tol && p[a] <= b.hi[a] + tol)) return false;
+    return true;
+}
+
+// With spatial splits, a triangle's references must together cover it: every
+// point of the triangle lies in the box of some leaf that references it.
+// Checked on the vertices, edge midpoints, centroid and random barycentric
+// points (a few ulps of tolerance for the rounding of the sample points).
+void check_coverage(const Bvh& bvh, const std::vector<Vec3f>& soup) {
+    const auto& nodes = bvh.nodes();
+    const auto& order = bvh.prim_order();
+    std::vector<std::vector<uint32_t>> leaves_of(soup.size() / 3);
+    for (uint32_t i = 0; i < nodes.size(); ++i)
+        if (nodes[i].is_leaf())
+            for (uint32_t s = nodes[i].index; s < nodes[i].index + nodes[i].count; ++s) leaves_of[order[s]].push_back(i);
+    std::mt19937 rng(17);
+    std::uniform_real_distribution<float> unit(0.0f, 1.0f);
+    for (size_t t = 0; t < leaves_of.size(); ++t) {
+        if (leaves_of[t].empty()) continue;  // skipped (non-finite) triangle
+        const Vec3f* v = &soup[3 * t];
+        const float scale = std::max({max_component(abs(v[0])), max_component(abs(v[1])), max_component(abs(v[2])), 1.0f});
+        const float tol = 4e-7f * scale;
+        std::vector<Vec3f> samples{v[0], v[1], v[2], (v[0] + v[1]) * 0.5f, (v[1] + v[2]) * 0.5f,
+                                   (v[2] + v[0]) * 0.5f, (v[0] + v[1] + v[2]) * (1.0f / 3.0f)};
+        for (int k = 0; k < 8; ++k) {
+            float a = unit(rng), b = unit(rng);
+            if (a + b > 1.0f) { a = 1.0f - a; b = 1.0f - b; }
+            samples.push_back(v[0] * (1.0f - a - b) + v[1] * a + v[2] * b);
+        }
+        for (const Vec3f& p : samples) {
+            bool covered = false;
+            for (uint32_t leaf : leaves_of[t]) covered = covered || box_contains_point(nodes[leaf].box, p, tol);
+            ASSERT_TRUE(covered) << "triangle " << t << ": a point is outside all its leaves";
+        }
+    }
+}
+
 // Walks the tree from the root and checks every structural invariant.
 void check_structure(const Bvh& bvh, const std::vector<Vec3f>& soup, const BvhBuildOptions& opt) {
     const auto& nodes = bvh.nodes();
@@ -29,6 +68,7 @@ void check_structure(const Bvh& bvh, const std::vector<Vec3f>& soup, const BvhBu
     ASSERT_FALSE(nodes.empty());
     std::vector<int> seen_node(nodes.size(), 0);
     std::vector<int> seen_slot(order.size(), 0);
+    const bool spatial = opt.spatial_split_budget > 0.0f;
     std::vector<uint32_t> stack{0};
     size_t leaves = 0;
     while (!stack.empty()) {
@@ -40,13 +80,24 @@ void check_structure(const Bvh& bvh, const std::vector<Vec3f>& soup, const BvhBu
         if (n.is_leaf()) {
             ++leaves;
             EXPECT_LE(n.count, static_cast<uint32_t>(opt.max_leaf_size));
+            std::set<uint32_t> in_leaf;
             for (uint32_t s = n.index; s < n.index + n.count; ++s) {
                 ASSERT_LT(s, order.size());
                 seen_slot[s]++;
                 const uint32_t tri = order[s];
+                EXPECT_TRUE(in_leaf.insert(tri).second) << "triangle " << tri << " twice in one leaf";
                 BBox tb;
                 for (int k = 0; k < 3; ++k) tb.expand(soup[3 * tri + k]);
-                EXPECT_TRUE(box_contains(n.box, tb)) << "leaf box misses its triangle " << tri;
+                if (spatial) {
+                    // A clipped reference: the leaf box lies within the triangle's box on
+                    // no axis in general, but it must at least touch it.
+                    BBox overlap;
+                    overlap.lo = max(n.box.lo, tb.lo);
+                    overlap.hi = min(n.box.hi, tb.hi);
+                    EXPECT_FALSE(overlap.empty()) << "leaf box does not touch its triangle " << tri;
+                } else {
+                    EXPECT_TRUE(box_contains(n.box, tb)) << "leaf box misses its triangle " << tri;
+                }
             }
         } else {
             ASSERT_LT(n.index + 1, nodes.size());
@@ -60,7 +111,14 @@ void check_structure(const Bvh& bvh, const std::vector<Vec3f>& soup, const BvhBu
     for (size_t i = 0; i < nodes.size(); ++i) EXPECT_EQ(seen_node[i], 1) << "unreachable node " << i;
     for (size_t s = 0; s < order.size(); ++s) EXPECT_EQ(seen_slot[s], 1) << "slot " << s << " not in exactly one leaf";
     std::set<uint32_t> prims(order.begin(), order.end());
-    EXPECT_EQ(prims.size(), order.size()) << "a triangle appears twice";
+    if (spatial) {
+        // Every triangle at least once, and the duplicates within the budget.
+        EXPECT_LE(order.size(), prims.size() + static_cast<size_t>(double(opt.spatial_split_budget) * double(prims.size())));
+        check_coverage(bvh, soup);
+    } else {
+        EXPECT_EQ(prims.size(), order.size()) << "a triangle appears twice";
+    }
+    EXPECT_EQ(bvh.build_stats().references, order.size());
     EXPECT_EQ(bvh.build_stats().nodes, nodes.size());
     EXPECT_EQ(bvh.build_stats().leaves, leaves);
     EXPECT_GT(bvh.build_stats().bytes, 0u);
@@ -134,28 +192,107 @@ TEST(Bvh, SmallSoupsMatchBruteForce) {
     }
 }
 
+// Both builders: spatial splits (the default) and the plain binned SAH.
+BvhBuildOptions with_budget(float budget) {
+    BvhBuildOptions opt;
+    opt.spatial_split_budget = budget;
+    return opt;
+}
+
 TEST(Bvh, RandomSoupMatchesBruteForce) {
     const auto soup = random_soup(20000, 1234, 10.0f, 1.0f);
-    Bvh bvh;
-    bvh.build(soup);
-    check_structure(bvh, soup, {});
-    size_t hits = 0;
-    expect_matches_brute_force(bvh, soup, random_rays(3000, 99, 10.0f), &hits);
-    EXPECT_GT(hits, 1000u) << "the ray set should exercise hits, not only misses";
+    for (float budget : {0.0f, 0.3f}) {
+        Bvh bvh;
+        bvh.build(soup, with_budget(budget));
+        check_structure(bvh, soup, with_budget(budget));
+        size_t hits = 0;
+        expect_matches_brute_force(bvh, soup, random_rays(3000, 99, 10.0f), &hits);
+        EXPECT_GT(hits, 1000u) << "the ray set should exercise hits, not only misses";
+    }
+}
+
+// Long thin triangles crossing each other (like sponza's): where spatial
+// splits pay off, so the builder really cuts references here. Cut references
+// must stay conservative, far from the origin too.
+std::vector<Vec3f> sliver_soup(size_t n, uint32_t seed, const Vec3f& offset) {
+    std::mt19937 rng(seed);
+    std::uniform_real_distribution<float> pos(-10.0f, 10.0f);
+    std::vector<Vec3f> soup;
+    for (size_t i = 0; i < n; ++i) {
+        const Vec3f a(pos(rng), pos(rng), pos(rng)), b(pos(rng), pos(rng), pos(rng));
+        const Vec3f side = random_unit(rng) * 0.05f;
+        soup.push_back(a + offset);
+        soup.push_back(b + offset);
+        soup.push_back(a + side + offset);
+    }
+    return soup;
+}
+
+TEST(Bvh, SpatialSplitsCutReferencesAndMatchBruteForce) {
+    for (const Vec3f offset : {Vec3f(0, 0, 0), Vec3f(1e4f, -3e3f, 5e3f)}) {
+        const auto soup = sliver_soup(3000, 61, offset);
+        for (float budget : {0.1f, 0.3f, 1.0f}) {
+            Bvh bvh;
+            bvh.build(soup, with_budget(budget));
+            check_structure(bvh, soup, with_budget(budget));
+            // A small budget may not afford any cut near the root, where each
+            // plane crosses most slivers; a larger one must be used.
+            if (budget >= 0.3f) {
+                EXPECT_GT(bvh.prim_order().size(), soup.size() / 3) << "no spatial split was made";
+            }
+            // Random rays, and rays aimed at random points of random triangles
+            // (each must hit at least that triangle's plane point).
+            auto rays = random_rays(2000, 62, 10.0f);
+            for (Ray& r : rays) r.o = r.o + offset;
+            std::mt19937 rng(63);
+            std::uniform_real_distribution<float> unit(0.0f, 1.0f);
+            for (int i = 0; i < 2000; ++i) {
+                const size_t t = rng() % (soup.size() / 3);
+                float u = unit(rng), v = unit(rng);
+                if (u + v > 1.0f) { u = 1.0f - u; v = 1.0f - v; }
+                const Vec3f* tv = &soup[3 * t];
+                const Vec3f target = tv[0] * (1.0f - u - v) + tv[1] * u + tv[2] * v;
+                Ray r;
+                r.o = target + random_unit(rng) * 30.0f;
+                r.d = target - r.o;
+                rays.push_back(r);
+            }
+            size_t hits = 0;
+            expect_matches_brute_force(bvh, soup, rays, &hits);
+            EXPECT_GT(hits, 2000u);
+        }
+    }
+}
+
+TEST(Bvh, SpatialSplitsLowerTheSahCostOnSlivers) {
+    // The point of spatial splits: fewer box and triangle tests on overlapping
+    // slivers for the same rays.
+    const auto soup = sliver_soup(5000, 71, Vec3f(0, 0, 0));
+    Bvh plain, split;
+    plain.build(soup, with_budget(0.0f));
+    split.build(soup, with_budget(0.3f));
+    TraversalCounters a, b;
+    for (const Ray& r : random_rays(3000, 72, 10.0f)) {
+        Hit h;
+        plain.intersect(r, h, &a);
+        split.intersect(r, h, &b);
+    }
+    EXPECT_LT(b.box_tests + 4 * b.triangle_tests, a.box_tests + 4 * a.triangle_tests);
 }
 
 TEST(Bvh, IcosphereAndGridMatchBruteForce) {
     // Closed meshes with shared edges: ties between neighbours are common.
     const auto sphere = icosphere(4, 3.0f, Vec3f(0.5f, -0.25f, 1.0f)).soup();
     const auto cube = tessellated_cube(16, 0.25f, Vec3f(-2.0f, -2.0f, -2.0f)).soup();
-    for (const auto* soup : {&sphere, &cube}) {
-        Bvh bvh;
-        bvh.build(*soup);
-        check_structure(bvh, *soup, {});
-        size_t hits = 0;
-        expect_matches_brute_force(bvh, *soup, random_rays(4000, 5, 3.0f), &hits);
-        EXPECT_GT(hits, 500u);
-    }
+    for (const auto* soup : {&sphere, &cube})
+        for (float budget : {0.0f, 0.3f}) {
+            Bvh bvh;
+            bvh.build(*soup, with_budget(budget));
+            check_structure(bvh, *soup, with_budget(budget));
+            size_t hits = 0;
+            expect_matches_brute_force(bvh, *soup, random_rays(4000, 5, 3.0f), &hits);
+            EXPECT_GT(hits, 500u);
+        }
 }
 
 TEST(Bvh, LeafSizeOptionIsRespected) {
@@ -229,11 +366,14 @@ TEST(Bvh, CoplanarOverlapsAgreeWithinRounding) {
 }
 
 TEST(Bvh, BuildIsDeterministicAcrossThreadCounts) {
-    const auto soup = random_soup(150000, 42);  // large enough for parallel binning and subtrees
+    auto soup = random_soup(150000, 42);  // large enough for parallel binning and subtrees
+    const auto slivers = sliver_soup(20000, 43, Vec3f(0, 0, 0));  // spatial splits at the top levels
+    soup.insert(soup.end(), slivers.begin(), slivers.end());
+    for (float budget : {0.0f, 0.3f}) {
     Bvh a, b;
     tbb::task_arena one(1);
-    one.execute([&] { a.build(soup); });
-    b.build(soup);
+    one.execute([&] { a.build(soup, with_budget(budget)); });
+    b.build(soup, with_budget(budget));
     ASSERT_EQ(a.nodes().size(), b.nodes().size());
     for (size_t i = 0; i < a.nodes().size(); ++i) {
         const BvhNode &x = a.nodes()[i], &y = b.nodes()[i];
@@ -241,8 +381,9 @@ TEST(Bvh, BuildIsDeterministicAcrossThreadCounts) {
             << "node " << i;
     }
     EXPECT_EQ(a.prim_order(), b.prim_order());
-    check_structure(b, soup, {});
+    check_structure(b, soup, with_budget(budget));
     expect_matches_brute_force(b, soup, random_rays(200, 77, 10.0f));
+    }
 }
 
 TEST(Bvh, NonFiniteTrianglesAreSkipped) {
@@ -251,8 +392,9 @@ TEST(Bvh, NonFiniteTrianglesAreSkipped) {
     soup[3 * 20 + 2] = Vec3f(0, INFINITY, 0);
     Bvh bvh;
     bvh.build(soup);
-    EXPECT_EQ(bvh.prim_order().size(), 98u);
-    for (uint32_t p : bvh.prim_order()) EXPECT_TRUE(p != 10 && p != 20);
+    const std::set<uint32_t> prims(bvh.prim_order().begin(), bvh.prim_order().end());
+    EXPECT_EQ(prims.size(), 98u);
+    for (uint32_t p : prims) EXPECT_TRUE(p != 10 && p != 20);
     EXPECT_TRUE(is_finite(bvh.bounds().lo) && is_finite(bvh.bounds().hi));
     expect_matches_brute_force(bvh, soup, random_rays(1000, 10, 10.0f));
 }
@@ -354,7 +496,8 @@ TEST(BvhScene, StanfordBunnyMatchesBruteForce) {
 
     Bvh bvh;
     bvh.build(scene);
-    EXPECT_EQ(bvh.prim_order().size(), scene.vertices.size() / 3);
+    const std::set<uint32_t> prims(bvh.prim_order().begin(), bvh.prim_order().end());
+    EXPECT_EQ(prims.size(), scene.vertices.size() / 3);
     check_structure(bvh, scene.vertices, {});
 
     // Rays from a sphere around the model toward random points of its box.

@@ -137,3 +137,31 @@ TEST(TraversalRobustness, DegenerateIntervals) {
     r.tmax = -kInf;
     EXPECT_FALSE(bvh.intersect(r, h));
 }
+
+TEST(TraversalRobustness, TinyDirectionComponentsWithOriginOnNodePlanes) {
+    // Nearly axis-parallel rays: |1/d| up to 1e30 in one axis, origins exactly
+    // on integer node planes, the grid near the origin and far from it. Small
+    // |1/d| x magnitude takes the fused slab test (fma with an outward-rounded
+    // o/d), large takes the exact one; both must be conservative, so the hits
+    // equal the brute-force ones, including rays through shared edges.
+    for (const float offset : {0.0f, 1024.0f, 65536.0f}) {
+        const auto soup = tessellated_cube(8, 1.0f, Vec3f(offset, offset, offset)).soup();
+        Bvh bvh;
+        bvh.build(soup);
+        std::mt19937 rng(7);
+        std::uniform_int_distribution<int> cell(-1, 9);
+        std::uniform_real_distribution<float> dir(-1.0f, 1.0f);
+        size_t hits = 0;
+        for (int i = 0; i < 12000; ++i) {
+            Ray r;
+            r.o = Vec3f(offset + float(cell(rng)), offset + float(cell(rng)), offset + float(cell(rng)));
+            Vec3f d(dir(rng), dir(rng), dir(rng));
+            const float tiny = std::ldexp(1.0f, -20 - (i % 6) * 16);  // 2^-20 ... 2^-100
+            d[i % 3] = (i / 3) % 2 ? tiny : -tiny;
+            r.d = d;
+            expect_same(bvh, soup, r, "tiny component");
+            hits += brute_force_closest(soup, r).valid();
+        }
+        EXPECT_GT(hits, 3000u);
+    }
+}
