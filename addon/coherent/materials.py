@@ -182,6 +182,7 @@ class MaterialConverter:
             "specular": self._value(material, node, "Specular"),
             "transmission": self._value(material, node, "Transmission"),
             "ior": ior,
+            "principled_diffuse": True,
         }
         ignored = [name for name, unused in (
             ("Subsurface", 0.0), ("Sheen", 0.0), ("Clearcoat", 0.0), ("Anisotropic", 0.0), ("Specular Tint", 0.0),

@@ -133,6 +133,7 @@ Material convert_material(const tinygltf::Material& in) {
     c.specular = 0.5f;  // Principled default; KHR_materials_specular is not mapped
     c.ior = 1.5f;       // GLTF_IOR: the importer sets it even without KHR_materials_ior
     c.transmission = 0.0f;
+    c.principled_diffuse = true;  // Blender imports glTF materials as Principled BSDFs
     double v = 0.0;
     if (const auto* ext = get_extension(in.extensions, "KHR_materials_ior"); ext && get_number(*ext, "ior", v) && v > 0.0)
         c.ior = float(v);

@@ -16,9 +16,9 @@
 //    whose F0 is 0.08 specular; separable Smith G; glass reflection white,
 //    refraction tinted. Measured directional albedo vs Cycles (world-lit
 //    plane, view 0/60/80 deg): metal 0.997-1.001, dielectric rough 0.5
-//    0.979-0.995, rough glass (60/80 deg) 0.99. Known gap: Blender's
-//    Principled diffuse is Burley, ours Lambert (roughness 0 at 80 deg:
-//    Cycles 0.63, ours 0.80); the Diffuse BSDF node matches exactly.
+//    0.979-0.995, rough glass (60/80 deg) 0.99. Diffuse: Lambert (Diffuse
+//    BSDF node) or Cycles' principled diffuse (Principled BSDF, glTF), see
+//    principled_diffuse().
 //  - Mix/Add: eval = sum_i w_i f_i; lobe i is picked with probability
 //    proportional to an albedo estimate, pdf = sum_i p_i pdf_i. Weights may sum
 //    above 1 (Add), the sample weight then exceeds the single-lobe weight.
@@ -43,6 +43,7 @@ struct Lobe {
     Vec3f tint{1.0f};       // Glass: colour of refracted light
     float alpha = 0.0f;     // GGX alpha = roughness^2
     float eta = 1.0f;       // Glass: eta_transmitted / eta_incident for wo's side
+    float retro = -1.0f;    // Diffuse: principled roughness (retro-reflection), < 0 for Lambert
     float pick = 0.0f;      // selection probability
 };
 
@@ -97,6 +98,7 @@ public:
                 Lobe& l = lobes_[count_++];
                 l.kind = LobeKind::Diffuse;
                 l.weight = cl.base_color * (w * lw.diffuse);
+                l.retro = cl.principled_diffuse ? rough : -1.0f;
                 l.pick = luminance(l.weight);
             }
             if (lw.specular > 0.0f) {
@@ -232,13 +234,28 @@ private:
         return true;
     }
 
+    // Cycles 3.4 calculate_principled_diffuse_brdf() relative to Lambert: the
+    // Disney diffuse (1 + (F90 - 1) FL)(1 + (F90 - 1) FV) with F90 = 0.5 + RR,
+    // RR = 2 roughness cos^2(theta_d) = roughness (1 + L.V), FX = (1 - cos)^5.
+    // Sampled by the cosine lobe like Lambert.
+    float principled_diffuse(float roughness, const Vec3f& wi) const {
+        auto schlick = [](float c) {
+            const float m = std::clamp(1.0f - c, 0.0f, 1.0f);
+            const float m2 = m * m;
+            return m2 * m2 * m;
+        };
+        const float fl = schlick(wi.z), fv = schlick(wo_.z);
+        const float rr = roughness * (dot(wi, wo_) + 1.0f);
+        return (1.0f - 0.5f * fl) * (1.0f - 0.5f * fv) + rr * (fl + fv + fl * fv * (rr - 1.0f));
+    }
+
     Vec3f eval_lobe(const Lobe& l, const Vec3f& wi, bool reflect_side, float& pdf) const {
         pdf = 0.0f;
         switch (l.kind) {
             case LobeKind::Diffuse:
                 if (!reflect_side) return Vec3f(0.0f);
                 pdf = wi.z * kInvPi;
-                return l.weight * (wi.z * kInvPi);
+                return l.weight * (wi.z * kInvPi * (l.retro < 0.0f ? 1.0f : principled_diffuse(l.retro, wi)));
             case LobeKind::Reflection: {
                 if (!reflect_side) return Vec3f(0.0f);
                 const Vec3f m = normalize(wo_ + wi);

@@ -25,6 +25,12 @@ struct Closure {
     float specular = 0.5f;      // [0,1] dielectric F0 = 0.08 * specular (Blender convention)
     float transmission = 0.0f;  // [0,1] blend opaque -> glass (for the non-metal part)
     float ior = 1.45f;          // index of refraction for transmission
+    // Diffuse lobe model. Blender's Principled BSDF (and so every glTF material
+    // after Blender's importer) uses Cycles' Burley-style "principled diffuse",
+    // whose retro-reflection grows with `roughness`; the Diffuse BSDF node is
+    // Lambert. Without this the default rough-1 glTF Cornell box renders ~10 %
+    // darker than Cycles.
+    bool principled_diffuse = false;
 };
 
 // Roughness at or below which a GGX lobe is a perfect mirror / smooth glass

@@ -119,11 +119,11 @@ INSTANTIATE_TEST_SUITE_P(Lights, CyclesUnits,
 // Bounces 0), seen by an orthographic camera at 0, 60 and 80 degrees from the
 // normal; the pixel mean is the directional albedo of the BSDF. Cycles values
 // from Blender 3.4.1 (1024 spp, Principled with distribution GGX).
-// Known gaps, not asserted: Principled diffuse in Blender 3.4 is Burley with
-// grazing retro-reflection/darkening while ours is Lambert (roughness 0, 80
-// deg: Cycles 0.6305, ours 0.8000; roughness 0.2 + specular 1 at 80 deg:
-// 1.0851 vs 1.1803); rough glass (roughness 0.3) at normal view: 0.9496 vs
-// 0.9996.
+// Principled cases use Cycles' principled diffuse (grazing darkening at low
+// roughness, retro-reflection at high roughness; with Lambert instead the
+// roughness-0 case at 80 deg gave 0.8000 against Cycles' 0.6305), the Diffuse
+// BSDF node is Lambert. Known gap, not asserted: rough glass (roughness 0.3)
+// at normal view: 0.9496 vs 0.9996.
 namespace {
 
 struct MaterialCase {
@@ -131,6 +131,7 @@ struct MaterialCase {
     float base, metallic, roughness, specular, transmission;
     int view_deg;
     float cycles;
+    bool principled = true;  // Principled BSDF (principled diffuse) or Diffuse BSDF node (Lambert)
 };
 
 class CyclesMaterials : public ::testing::TestWithParam<MaterialCase> {};
@@ -145,6 +146,7 @@ TEST_P(CyclesMaterials, DirectionalAlbedoMatchesCycles) {
     m.closures[0].specular = c.specular;
     m.closures[0].transmission = c.transmission;
     m.closures[0].ior = 1.45f;
+    m.closures[0].principled_diffuse = c.principled;
     const uint32_t id = s.add_material(m);
     add_quad(s, {0, 0, 0}, {1, 0, 0}, {0, 1, 0}, 400, 400, id);
     s.world_color = Vec3f(1.0f);
@@ -183,7 +185,9 @@ INSTANTIATE_TEST_SUITE_P(
                       MaterialCase{"metal_white_r06", 1.0f, 1.0f, 0.6f, 0.5f, 0.0f, 80, 0.80176f},
                       MaterialCase{"rough_glass_r03", 1.0f, 0.0f, 0.3f, 0.5f, 1.0f, 60, 0.99690f},
                       MaterialCase{"rough_glass_r03", 1.0f, 0.0f, 0.3f, 0.5f, 1.0f, 80, 0.96076f},
-                      MaterialCase{"diffuse_node", 0.8f, 0.0f, 0.5f, 0.0f, 0.0f, 80, 0.79999f}));
+                      MaterialCase{"dielectric_r0", 0.8f, 0.0f, 0.0f, 0.0f, 0.0f, 80, 0.6305f},
+                      MaterialCase{"dielectric_spec1_r02", 0.8f, 0.0f, 0.2f, 1.0f, 0.0f, 80, 1.0851f},
+                      MaterialCase{"diffuse_node", 0.8f, 0.0f, 0.5f, 0.0f, 0.0f, 80, 0.79999f, false}));
 
 }  // namespace
 
