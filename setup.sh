@@ -21,7 +21,7 @@ PACKAGES=(
   pybind11-dev libtbb-dev libopenimageio-dev openimageio-tools
   libtinygltf-dev nlohmann-json3-dev libstb-dev
   libgtest-dev libembree-dev
-  xvfb
+  xvfb libgl1-mesa-dri libglx-mesa0
 )
 
 step "Installing Debian packages"

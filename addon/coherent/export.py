@@ -90,6 +90,73 @@ def _original_pointer(ob):
     return (original if original is not None else ob).as_pointer()
 
 
+def mesh_cache_key(ob):
+    """Key of the triangles an evaluated object renders: shared by all instances of them."""
+    data = ob.data
+    if ob.type == "MESH" and data is not None:
+        # The evaluated object's data already has modifiers applied and is
+        # shared by every instance of it: cache on the datablock.
+        return ("MESH", data.as_pointer())
+    # Curves/text/metaballs evaluate per object: cache per object (instances
+    # of the same object still share it).
+    return (ob.type, _original_pointer(ob), data.as_pointer() if data is not None else 0)
+
+
+class MeshCache:
+    """MeshArrays per mesh_cache_key, optionally kept across exports.
+
+    A final render uses a fresh cache per export. An interactive viewport
+    keeps one for its whole session so that a transform, material or light
+    edit never re-extracts a mesh; it must then drop the entries whose
+    geometry changed (invalidate_objects / invalidate_data, driven by the
+    depsgraph's geometry updates) and those no longer used (retain).
+    """
+
+    def __init__(self):
+        self.arrays = {}    # key -> MeshArrays, or None for an object without faces
+        self.users = {}     # key -> set of original object pointers that rendered it
+        self.sources = {}   # key -> original data pointer (0 if none)
+        self.extracted = 0  # meshes extracted over the cache's lifetime
+
+    def __len__(self):
+        return len(self.arrays)
+
+    def lookup(self, key, ob):
+        """Cached arrays for `key` (KeyError if absent); records `ob` as a user."""
+        arrays = self.arrays[key]
+        self.users[key].add(_original_pointer(ob))
+        return arrays
+
+    def store(self, key, ob, arrays):
+        data = ob.data
+        original_data = getattr(data, "original", None) if data is not None else None
+        self.arrays[key] = arrays
+        self.users[key] = {_original_pointer(ob)}
+        self.sources[key] = (original_data or data).as_pointer() if data is not None else 0
+        self.extracted += 1
+
+    def invalidate_objects(self, object_pointers):
+        """Drops what these (original) objects rendered; returns whether anything was dropped."""
+        return self._drop([k for k, users in self.users.items() if users & object_pointers])
+
+    def invalidate_data(self, data_pointers):
+        """Drops what was extracted from these (original or evaluated) datablocks."""
+        return self._drop([k for k in self.arrays
+                           if self.sources[k] in data_pointers or (k[0] == "MESH" and k[1] in data_pointers)])
+
+    def retain(self, keys):
+        """Drops every entry not in `keys` (deleted or hidden objects)."""
+        self._drop([k for k in self.arrays if k not in keys])
+
+    def clear(self):
+        self._drop(list(self.arrays))
+
+    def _drop(self, keys):
+        for k in keys:
+            del self.arrays[k], self.users[k], self.sources[k]
+        return bool(keys)
+
+
 class ExportResult:
     def __init__(self, scene):
         self.scene = scene
@@ -103,7 +170,7 @@ class ExportResult:
 class SceneExporter:
     """Converts one evaluated depsgraph into a native Scene."""
 
-    def __init__(self, native, depsgraph, width, height, camera_override=None, need_camera=True):
+    def __init__(self, native, depsgraph, width, height, camera_override=None, need_camera=True, mesh_cache=None):
         self.native = native
         self.depsgraph = depsgraph
         self.width = width
@@ -112,7 +179,8 @@ class SceneExporter:
         self.need_camera = need_camera  # False for viewports, which bring their own view
         self.result = ExportResult(native.Scene())
         self.materials = materials.MaterialConverter(self.result.scene, self.result.warnings)
-        self._mesh_cache = {}
+        self.mesh_cache = mesh_cache if mesh_cache is not None else MeshCache()
+        self.used_keys = set()  # mesh_cache keys this export rendered
         self._unsupported_types = set()
 
     def export(self, cancelled=lambda: False):
@@ -163,20 +231,15 @@ class SceneExporter:
 
     def _mesh_for(self, ob):
         """Cached MeshArrays for this instance's geometry (None if empty)."""
-        data = ob.data
-        if ob.type == "MESH" and data is not None:
-            # The evaluated object's data already has modifiers applied and is
-            # shared by every instance of it: cache on the datablock.
-            key = ("MESH", data.as_pointer())
-        else:
-            # Curves/text/metaballs evaluate per object: cache per object
-            # (instances of the same object still share it).
-            key = (ob.type, ob.original.as_pointer() if ob.original is not None else ob.as_pointer(),
-                   data.as_pointer() if data is not None else 0)
-        if key in self._mesh_cache:
-            return self._mesh_cache[key]
+        key = mesh_cache_key(ob)
+        self.used_keys.add(key)
+        try:
+            return self.mesh_cache.lookup(key, ob)
+        except KeyError:
+            pass
 
         arrays = None
+        data = ob.data
         if ob.type == "MESH" and data is not None and not data.is_editmode:
             arrays = mesh_arrays(data)
         else:
@@ -186,7 +249,7 @@ class SceneExporter:
                     arrays = mesh_arrays(mesh)
             finally:
                 ob.to_mesh_clear()
-        self._mesh_cache[key] = arrays
+        self.mesh_cache.store(key, ob, arrays)
         if arrays is not None:
             self.result.meshes += 1
         return arrays
@@ -219,43 +282,10 @@ class SceneExporter:
     # -- lights -----------------------------------------------------------------
 
     def _export_light(self, ob, matrix):
-        light = ob.data
-        if light.energy <= 0.0 or max(light.color) <= 0.0:
+        light = light_arguments(ob, matrix, self.result.warnings)
+        if light is None:
             return
-        position = matrix[:3, 3]
-        x_axis, y_axis, z_axis = matrix[:3, 0], matrix[:3, 1], matrix[:3, 2]
-        direction = -z_axis  # lights shine along local -Z
-        if np.linalg.norm(direction) < 1e-12:
-            self.result.warnings.append(f"light '{ob.name}' has zero scale and was skipped")
-            return
-        args = dict(color=tuple(light.color), power=float(light.energy), position=tuple(position),
-                    direction=tuple(direction))
-        kind = light.type
-        if kind in ("POINT", "SPOT"):
-            args["radius"] = float(light.shadow_soft_size)
-            if kind == "SPOT":
-                args["spot_size"] = float(light.spot_size)
-                args["spot_blend"] = float(light.spot_blend)
-        elif kind == "SUN":
-            args["sun_angle"] = float(light.angle)
-        elif kind == "AREA":
-            # Object scale stretches the emitter: sizes along the scaled axes.
-            su, sv = float(np.linalg.norm(x_axis)), float(np.linalg.norm(y_axis))
-            if su < 1e-12 or sv < 1e-12:
-                self.result.warnings.append(f"area light '{ob.name}' has zero scale and was skipped")
-                return
-            shape = light.shape
-            size_u = float(light.size) * su
-            size_v = (float(light.size) if shape in ("SQUARE", "DISK") else float(light.size_y)) * sv
-            if shape == "SQUARE" and abs(size_u - size_v) > 1e-6 * max(size_u, size_v):
-                shape = "RECTANGLE"
-            elif shape == "DISK" and abs(size_u - size_v) > 1e-6 * max(size_u, size_v):
-                shape = "ELLIPSE"
-            args.update(shape=shape, size_u=size_u, size_v=size_v,
-                        axis_u=tuple(x_axis / su), axis_v=tuple(y_axis / sv))
-        else:
-            self.result.warnings.append(f"light '{ob.name}' of type {kind} is not supported and was skipped")
-            return
+        kind, args = light
         self.result.scene.add_light(kind, **args)
         self.result.lights += 1
 
@@ -271,6 +301,48 @@ class SceneExporter:
             raise ExportError(f"the active camera '{cam_ob.name}' is a {cam_ob.type} object, not a camera")
         self.result.scene.set_camera(**camera_parameters(cam_ob, bscene.render, self.width, self.height,
                                                           self.result.warnings))
+
+
+def light_arguments(ob, matrix, warnings):
+    """(type, keyword arguments) of Scene.add_light for an evaluated light object, or None to skip it."""
+    light = ob.data
+    if light.energy <= 0.0 or max(light.color) <= 0.0:
+        return None
+    position = matrix[:3, 3]
+    x_axis, y_axis, z_axis = matrix[:3, 0], matrix[:3, 1], matrix[:3, 2]
+    direction = -z_axis  # lights shine along local -Z
+    if np.linalg.norm(direction) < 1e-12:
+        warnings.append(f"light '{ob.name}' has zero scale and was skipped")
+        return None
+    args = dict(color=tuple(light.color), power=float(light.energy), position=tuple(position),
+                direction=tuple(direction))
+    kind = light.type
+    if kind in ("POINT", "SPOT"):
+        args["radius"] = float(light.shadow_soft_size)
+        if kind == "SPOT":
+            args["spot_size"] = float(light.spot_size)
+            args["spot_blend"] = float(light.spot_blend)
+    elif kind == "SUN":
+        args["sun_angle"] = float(light.angle)
+    elif kind == "AREA":
+        # Object scale stretches the emitter: sizes along the scaled axes.
+        su, sv = float(np.linalg.norm(x_axis)), float(np.linalg.norm(y_axis))
+        if su < 1e-12 or sv < 1e-12:
+            warnings.append(f"area light '{ob.name}' has zero scale and was skipped")
+            return None
+        shape = light.shape
+        size_u = float(light.size) * su
+        size_v = (float(light.size) if shape in ("SQUARE", "DISK") else float(light.size_y)) * sv
+        if shape == "SQUARE" and abs(size_u - size_v) > 1e-6 * max(size_u, size_v):
+            shape = "RECTANGLE"
+        elif shape == "DISK" and abs(size_u - size_v) > 1e-6 * max(size_u, size_v):
+            shape = "ELLIPSE"
+        args.update(shape=shape, size_u=size_u, size_v=size_v,
+                    axis_u=tuple(x_axis / su), axis_v=tuple(y_axis / sv))
+    else:
+        warnings.append(f"light '{ob.name}' of type {kind} is not supported and was skipped")
+        return None
+    return kind, args
 
 
 def camera_parameters(cam_ob, render, width, height, warnings=None):
@@ -349,11 +421,41 @@ def camera_focus_distance(cam_ob):
     return float(abs(np.dot(view / norm, cm[:3, 3] - tm[:3, 3])))
 
 
+def scan_instances(depsgraph):
+    """What the depsgraph renders, cheaply and without extracting geometry.
+
+    Returns (geometry, lights). `geometry` has one entry per surface
+    instance: its mesh_cache_key, object-to-world matrix and slot materials;
+    two equal `geometry` values place the same cached triangles in the same
+    places with the same materials (edits of the triangles themselves show up
+    as depsgraph geometry updates instead). `lights` lists light_arguments().
+    Instances are only valid while iterating, hence one pass that copies.
+    """
+    geometry, lights, warnings = [], [], []
+    for inst in depsgraph.object_instances:
+        if not getattr(inst, "show_self", True):
+            continue
+        ob = inst.object
+        kind = ob.type
+        if kind in _MESH_TYPES:
+            slots = tuple(slot.material.original.as_pointer() if slot.material is not None else 0
+                          for slot in ob.material_slots)
+            geometry.append((mesh_cache_key(ob), inst.is_instance,
+                             np.array(inst.matrix_world, dtype=np.float32).tobytes(), slots))
+        elif kind == "LIGHT":
+            light = light_arguments(ob, np.array(inst.matrix_world, dtype=np.float64), warnings)
+            if light is not None:
+                lights.append(light)
+    return tuple(geometry), lights
+
+
 def export_scene(native, depsgraph, width, height, camera_override=None, cancelled=lambda: False,
-                 need_camera=True):
+                 need_camera=True, mesh_cache=None):
     """Exports the evaluated depsgraph; returns an ExportResult (scene, warnings, counts, seconds).
 
     width/height (pixels) only serve the camera's sensor fit; with
-    need_camera=False the scene camera is ignored (viewports).
+    need_camera=False the scene camera is ignored (viewports). `mesh_cache`
+    (a MeshCache) lets an interactive session reuse extracted meshes.
     """
-    return SceneExporter(native, depsgraph, width, height, camera_override, need_camera).export(cancelled)
+    exporter = SceneExporter(native, depsgraph, width, height, camera_override, need_camera, mesh_cache)
+    return exporter.export(cancelled)

@@ -13,6 +13,7 @@
 #include <sstream>
 #include <vector>
 
+#include "accel/bvh.h"
 #include "bindings.h"
 
 namespace coherent::python {
@@ -108,12 +109,13 @@ Closure closure_from_dict(const py::dict& d, size_t index) {
         else if (key == "roughness") c.roughness = unit_clamp(v.cast<double>(), arg.c_str());
         else if (key == "specular") c.specular = unit_clamp(v.cast<double>(), arg.c_str());
         else if (key == "transmission") c.transmission = unit_clamp(v.cast<double>(), arg.c_str());
+        else if (key == "principled_diffuse") c.principled_diffuse = v.cast<bool>();
         else if (key == "ior") {
             c.ior = finite_float(v.cast<double>(), arg.c_str());
             if (!(c.ior > 0.0f)) throw py::value_error(arg + ": index of refraction must be > 0");
         } else {
             throw py::value_error("closures[" + std::to_string(index) + "]: unknown key '" + key +
-                                  "' (expected base_color, metallic, roughness, specular, transmission, ior)");
+                                  "' (expected base_color, metallic, roughness, specular, transmission, ior, principled_diffuse)");
         }
     }
     return c;
@@ -215,12 +217,13 @@ size_t add_mesh(PyScene& self, const std::string& name, const py::handle& positi
         added = self.scene.add_mesh(in);
     }
     self.finalized = false;
+    self.bvh.reset();  // the triangles changed
     return added;
 }
 
-uint32_t add_material(PyScene& self, const std::string& name, const py::handle& closures_obj,
-                      const py::handle& weights_obj, const py::handle& emission_obj) {
-    self.check_mutable("add_material");
+// A validated Material from add_material's / set_material's arguments.
+Material material_from_args(const std::string& name, const py::handle& closures_obj, const py::handle& weights_obj,
+                            const py::handle& emission_obj) {
     Material m;
     m.name = name;
 
@@ -265,7 +268,24 @@ uint32_t add_material(PyScene& self, const std::string& name, const py::handle& 
 
     m.emission = to_vec3(emission_obj, "emission");
     if (min_component(m.emission) < 0.0f) throw py::value_error("emission: components must be >= 0");
-    return self.scene.add_material(m);
+    return m;
+}
+
+uint32_t add_material(PyScene& self, const std::string& name, const py::handle& closures_obj,
+                      const py::handle& weights_obj, const py::handle& emission_obj) {
+    self.check_mutable("add_material");
+    return self.scene.add_material(material_from_args(name, closures_obj, weights_obj, emission_obj));
+}
+
+// Replaces a material in place: triangles keep their material indices, so
+// the BVH stays valid (the features and emitter list are recomputed by
+// finalize()).
+void set_material(PyScene& self, size_t index, const std::string& name, const py::handle& closures_obj,
+                  const py::handle& weights_obj, const py::handle& emission_obj) {
+    self.check_mutable("set_material");
+    if (index >= self.scene.materials.size()) throw py::index_error("set_material: material index out of range");
+    self.scene.materials[index] = material_from_args(name, closures_obj, weights_obj, emission_obj);
+    self.finalized = false;
 }
 
 size_t add_light(PyScene& self, const std::string& type, const py::handle& color, double power,
@@ -371,6 +391,7 @@ py::dict material_dict(const Material& m) {
         cd["specular"] = c.specular;
         cd["transmission"] = c.transmission;
         cd["ior"] = c.ior;
+        cd["principled_diffuse"] = c.principled_diffuse;
         closures.append(cd);
         weights.append(m.weights[size_t(i)]);
     }
@@ -378,6 +399,25 @@ py::dict material_dict(const Material& m) {
     d["weights"] = weights;
     d["emission"] = vec_tuple(m.emission);
     return d;
+}
+
+double build_bvh(PyScene& self, bool spatial_splits) {
+    BvhBuildOptions options;
+    if (!spatial_splits) options.spatial_split_budget = 0.0f;  // plain binned SAH
+    self.ensure_finalized();
+    auto bvh = std::make_shared<Bvh>();
+    // Claimed like a Renderer claims it: no mutation while the GIL is released.
+    self.active_renderers.fetch_add(1);
+    try {
+        py::gil_scoped_release unlocked;
+        bvh->build(self.scene, options);
+    } catch (...) {
+        self.active_renderers.fetch_sub(1);
+        throw;
+    }
+    self.active_renderers.fetch_sub(1);
+    self.bvh = bvh;
+    return bvh->build_stats().seconds;
 }
 
 }  // namespace
@@ -421,10 +461,26 @@ counted in `dropped`. Returns the number of triangles added.)doc")
              R"doc(Adds a material; returns its index.
 
 closures: up to 4 dicts with keys base_color, metallic, roughness, specular,
-transmission, ior (missing keys take Principled BSDF defaults; [0,1] values
+transmission, ior, principled_diffuse (missing keys take Principled BSDF defaults,
+except principled_diffuse: False is Lambert, True Cycles' Principled diffuse; [0,1] values
 are clamped). An empty list means no BSDF (black, e.g. pure emission).
 weights: one non-negative weight per closure (default: equal, summing to 1).
 emission: emitted radiance (colour x strength).)doc")
+        .def("set_material", &set_material, py::arg("index"), py::arg("name"), py::arg("closures") = py::none(),
+             py::arg("weights") = py::none(), py::arg("emission") = py::make_tuple(0.0, 0.0, 0.0),
+             "Replaces material `index` (arguments as add_material). Keeps the BVH: no triangle changes.")
+        .def("clear_lights", [](PyScene& s) {
+                s.check_mutable("clear_lights");
+                s.scene.lights.clear();
+                s.finalized = false;
+            }, "Removes every light (add_light adds them again). Keeps the BVH.")
+        .def_property_readonly("has_bvh", [](const PyScene& s) { return s.bvh != nullptr; },
+                               "Whether a BVH over the current triangles is kept for the next Renderer.")
+        .def("build_bvh", &build_bvh, py::arg("spatial_splits") = true, R"doc(
+Builds the BVH over the current triangles now and keeps it for the next
+Renderers (which otherwise build one with spatial splits). Without spatial
+splits the build is several times faster and traversal somewhat slower: the
+trade interactive viewports want after a geometry edit. Returns build seconds.)doc")
         .def("add_light", &add_light, py::arg("type") = "POINT", py::kw_only(),
              py::arg("color") = py::make_tuple(1.0, 1.0, 1.0), py::arg("power") = 10.0,
              py::arg("position") = py::make_tuple(0.0, 0.0, 0.0), py::arg("direction") = py::make_tuple(0.0, 0.0, -1.0),

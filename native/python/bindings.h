@@ -17,6 +17,10 @@
 
 #include "scene/scene.h"
 
+namespace coherent {
+class Bvh;
+}
+
 namespace coherent::python {
 
 namespace py = pybind11;
@@ -32,6 +36,12 @@ struct PyScene {
     Scene scene;
     bool finalized = false;
     std::atomic<int> active_renderers{0};
+    // The BVH over the current triangles, built by Scene.build_bvh() or the
+    // first Renderer and reused by the next ones (interactive viewports
+    // restart a Renderer on every camera, material, light or world edit).
+    // Invariant: null or built from exactly `scene`'s current triangles;
+    // add_mesh resets it.
+    std::shared_ptr<const Bvh> bvh;
 
     void check_mutable(const char* what) const;
     void ensure_finalized();

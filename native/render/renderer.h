@@ -30,6 +30,12 @@ class Renderer {
 public:
     // The scene must be finalize()d and outlive the renderer. Builds the BVH.
     Renderer(const Scene& scene, const RenderSettings& settings);
+    // Renders with a BVH already built over exactly this scene's triangles
+    // (interactive sessions: camera, material, light and world edits leave
+    // the triangles, and so the BVH, unchanged). Precondition: `bvh` was
+    // built from `scene` and no triangle changed since; it is shared, never
+    // modified.
+    Renderer(const Scene& scene, const RenderSettings& settings, std::shared_ptr<const Bvh> bvh);
     ~Renderer();
 
     // Renders settings.spp samples per pixel, pass by pass (sample 0 over the
@@ -42,13 +48,15 @@ public:
     const Film& film() const { return film_; }
     const RenderStats& stats() const { return stats_; }
     const SceneFeatures& active_features() const { return features_; }
-    const Bvh& bvh() const { return bvh_; }
+    const Bvh& bvh() const { return *bvh_; }
+    // The BVH, for handing on to the next Renderer over the same triangles.
+    const std::shared_ptr<const Bvh>& shared_bvh() const { return bvh_; }
 
 private:
     const Scene& scene_;
     RenderSettings settings_;
     SceneFeatures features_;
-    Bvh bvh_;
+    std::shared_ptr<const Bvh> bvh_;  // never null after construction
     Film film_;
     RenderStats stats_;
     std::atomic<bool> cancelled_{false};
