@@ -25,6 +25,8 @@ import bpy
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 REPO = os.path.dirname(HERE)
+sys.path.insert(0, HERE)
+from cycles_reference import configure_cycles_reference  # noqa: E402
 
 # Light path limits shared by Cycles and COHERENT in every scene (Blender's
 # defaults, written explicitly so a change of defaults cannot desynchronise
@@ -151,23 +153,10 @@ def configure_render(scene, samples):
     scene.view_settings.view_transform = 'Standard'  # no Filmic: tests compare linear data
     scene.view_settings.look = 'None'
 
-    c = scene.cycles
-    c.device = 'CPU'
-    c.samples = samples
+    c = configure_cycles_reference(scene, samples)
     c.preview_samples = 16
-    c.use_adaptive_sampling = False
-    c.use_denoising = False
     c.use_preview_denoising = False
-    c.sample_clamp_direct = 0.0
-    c.sample_clamp_indirect = 0.0
-    c.light_sampling_threshold = 0.0
-    c.blur_glossy = 0.0
-    c.caustics_reflective = True
-    c.caustics_refractive = True
-    c.pixel_filter_type = 'BOX'
-    c.filter_width = 1.0
     c.seed = 0
-    c.use_animated_seed = False
     for key, value in BOUNCES.items():
         setattr(c, key, value)
     c.volume_bounces = 0

@@ -10,9 +10,13 @@
 # sampling, denoising, clamping, light threshold, glossy blur), so both are
 # plain unbiased path tracers of the same scene.
 
+import os
 import sys
 
 import bpy
+
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "blend_scenes"))
+from cycles_reference import configure_cycles_reference  # noqa: E402
 
 args = sys.argv[sys.argv.index("--") + 1:]
 engine, samples, percent, max_bounces, out_dir = args[0], int(args[1]), int(args[2]), int(args[3]), args[4]
@@ -31,20 +35,7 @@ render.image_settings.exr_codec = "ZIP"
 bounces = dict(max_bounces=max_bounces, diffuse_bounces=min(4, max_bounces),
                glossy_bounces=min(4, max_bounces), transmission_bounces=max_bounces)
 
-c = scene.cycles
-c.device = "CPU"
-c.samples = samples
-c.use_adaptive_sampling = False
-c.use_denoising = False
-c.sample_clamp_direct = 0.0
-c.sample_clamp_indirect = 0.0
-c.light_sampling_threshold = 0.0
-c.blur_glossy = 0.0
-c.caustics_reflective = True
-c.caustics_refractive = True
-c.pixel_filter_type = "BOX"
-c.filter_width = 1.0
-c.use_animated_seed = False
+c = configure_cycles_reference(scene, samples)
 for key, value in bounces.items():
     setattr(c, key, value)
 

@@ -8,23 +8,12 @@
 #include "core/random.h"
 #include "render/bsdf.h"
 #include "render/microfacet.h"
+#include "test_render_helpers.h"
 
 using namespace coherent;
+using coherent::test::principled;
 
 namespace {
-
-Material closure_material(float base, float metallic, float roughness, float specular, float transmission,
-                          float ior = 1.5f) {
-    Material m;
-    Closure& c = m.closures[0];
-    c.base_color = Vec3f(base);
-    c.metallic = metallic;
-    c.roughness = roughness;
-    c.specular = specular;
-    c.transmission = transmission;
-    c.ior = ior;
-    return m;
-}
 
 Vec3f dir_from_angle(float theta) { return {std::sin(theta), 0.0f, std::cos(theta)}; }
 
@@ -65,15 +54,15 @@ struct Case {
 TEST(Bsdf, SamplingMatchesEvaluationAndConservesEnergy) {
     const Vec3f n{0, 0, 1};
     std::vector<Case> cases = {
-        {"diffuse", closure_material(1.0f, 0.0f, 0.5f, 0.0f, 0.0f)},
-        {"metal_r05", closure_material(1.0f, 1.0f, 0.5f, 0.5f, 0.0f)},
-        {"metal_r02", closure_material(1.0f, 1.0f, 0.2f, 0.5f, 0.0f)},
-        {"rough_glass", closure_material(1.0f, 0.0f, 0.4f, 0.5f, 1.0f)},
-        {"plastic", closure_material(0.5f, 0.0f, 0.3f, 0.5f, 0.0f)},
+        {"diffuse", principled(1.0f, 0.0f, 0.5f, 0.0f, 0.0f)},
+        {"metal_r05", principled(1.0f, 1.0f, 0.5f, 0.5f, 0.0f)},
+        {"metal_r02", principled(1.0f, 1.0f, 0.2f, 0.5f, 0.0f)},
+        {"rough_glass", principled(1.0f, 0.0f, 0.4f, 0.5f, 1.0f)},
+        {"plastic", principled(0.5f, 0.0f, 0.3f, 0.5f, 0.0f)},
     };
-    Material mix = closure_material(1.0f, 0.0f, 0.5f, 0.0f, 0.0f);
+    Material mix = principled(1.0f, 0.0f, 0.5f, 0.0f, 0.0f);
     mix.closure_count = 2;
-    mix.closures[1] = closure_material(1.0f, 1.0f, 0.3f, 0.5f, 0.0f).closures[0];
+    mix.closures[1] = principled(1.0f, 1.0f, 0.3f, 0.5f, 0.0f).closures[0];
     mix.weights = {0.3f, 0.7f, 0.0f, 0.0f};
     cases.push_back({"mix", mix});
 
@@ -101,9 +90,9 @@ TEST(Bsdf, SamplingMatchesEvaluationAndConservesEnergy) {
 
 TEST(Bsdf, WhiteDiffuseAlbedoIsOneAndRoughMetalLosesLittle) {
     const Vec3f n{0, 0, 1};
-    const Bsdf diffuse(closure_material(1.0f, 0.0f, 0.5f, 0.0f, 0.0f), n, n, dir_from_angle(0.5f), true, true);
+    const Bsdf diffuse(principled(1.0f, 0.0f, 0.5f, 0.0f, 0.0f), n, n, dir_from_angle(0.5f), true, true);
     EXPECT_NEAR(albedo_by_sampling(diffuse, 10000, 3), 1.0, 1e-5);  // weight is exactly the colour
-    const Bsdf metal(closure_material(1.0f, 1.0f, 0.5f, 0.5f, 0.0f), n, n, dir_from_angle(0.5f), true, true);
+    const Bsdf metal(principled(1.0f, 1.0f, 0.5f, 0.5f, 0.0f), n, n, dir_from_angle(0.5f), true, true);
     const double a = albedo_by_sampling(metal, 200000, 4);
     // Single-scattering GGX at alpha 0.25 loses a few percent to multiple scattering.
     EXPECT_GT(a, 0.9);
@@ -115,7 +104,7 @@ TEST(Bsdf, SmoothGlassSplitsEnergyByFresnel) {
     for (bool front : {true, false}) {
         for (float theta : {0.0f, 0.5f, 1.0f, 1.4f}) {
             const Vec3f wo = dir_from_angle(theta);
-            const Bsdf b(closure_material(1.0f, 0.0f, 0.0f, 0.5f, 1.0f, 1.5f), n, n, wo, front, true);
+            const Bsdf b(principled(1.0f, 0.0f, 0.0f, 0.5f, 1.0f, 1.5f), n, n, wo, front, true);
             ASSERT_TRUE(b.has_non_delta() == false);
             Pcg32 rng(5);
             int reflected = 0, total = 20000;
@@ -147,7 +136,7 @@ TEST(Bsdf, SmoothGlassSplitsEnergyByFresnel) {
 
 TEST(Bsdf, ReflectionIsReciprocal) {
     const Vec3f n{0, 0, 1};
-    const Material m = closure_material(0.7f, 0.3f, 0.35f, 0.5f, 0.0f);
+    const Material m = principled(0.7f, 0.3f, 0.35f, 0.5f, 0.0f);
     Pcg32 rng(9);
     for (int i = 0; i < 100; ++i) {
         const Vec3f a = normalize(Vec3f(rng.next_float() - 0.5f, rng.next_float() - 0.5f, rng.next_float() + 0.05f));
@@ -165,8 +154,8 @@ TEST(Bsdf, ShadingNormalNeverLeaksThroughGeometry) {
     const Vec3f ng{0, 0, 1};
     const Vec3f ns = normalize(Vec3f(std::sin(0.7f), 0, std::cos(0.7f)));
     const Vec3f wo = normalize(Vec3f(-0.2f, 0.0f, 0.98f));
-    for (const Material& m : {closure_material(1.0f, 0.0f, 0.5f, 0.0f, 0.0f), closure_material(1.0f, 1.0f, 0.0f, 0.5f, 0.0f),
-                              closure_material(1.0f, 1.0f, 0.3f, 0.5f, 0.0f)}) {
+    for (const Material& m : {principled(1.0f, 0.0f, 0.5f, 0.0f, 0.0f), principled(1.0f, 1.0f, 0.0f, 0.5f, 0.0f),
+                              principled(1.0f, 1.0f, 0.3f, 0.5f, 0.0f)}) {
         const Bsdf b(m, ns, ng, wo, true, true);
         Pcg32 rng(11);
         for (int i = 0; i < 20000; ++i) {

@@ -67,17 +67,6 @@ Scene furnace_scene(const Material& m) {
     return s;
 }
 
-Material principled(float base, float metallic, float roughness, float specular, float transmission, float ior = 1.5f) {
-    Material m;
-    Closure& c = m.closures[0];
-    c.base_color = Vec3f(base);
-    c.metallic = metallic;
-    c.roughness = roughness;
-    c.specular = specular;
-    c.transmission = transmission;
-    c.ior = ior;
-    return m;
-}
 
 TEST(RenderFurnace, WhiteDiffuseSphereReturnsOne) {
     const Scene s = furnace_scene(principled(1.0f, 0.0f, 0.5f, 0.0f, 0.0f));

@@ -20,6 +20,20 @@ inline Material diffuse_material(const Vec3f& color, const char* name = "diffuse
     return m;
 }
 
+// One principled closure with constant inputs (Lambert diffuse unless stated).
+inline Material principled(float base, float metallic, float roughness, float specular, float transmission,
+                           float ior = 1.5f) {
+    Material m;
+    Closure& c = m.closures[0];
+    c.base_color = Vec3f(base);
+    c.metallic = metallic;
+    c.roughness = roughness;
+    c.specular = specular;
+    c.transmission = transmission;
+    c.ior = ior;
+    return m;
+}
+
 inline Material emission_material(const Vec3f& radiance) {
     Material m = diffuse_material(Vec3f(0.0f), "emission");
     m.emission = radiance;
