@@ -64,6 +64,7 @@ struct Options {
     int max_leaf = BvhBuildOptions{}.max_leaf_size;
     float traversal_cost = BvhBuildOptions{}.traversal_cost;
     float spatial_alpha = BvhBuildOptions{}.spatial_split_alpha;
+    bool optimal_collapse = BvhBuildOptions{}.optimal_collapse;
     std::string only;  // time only this ray set (empty: all)
 };
 
@@ -72,7 +73,8 @@ struct Options {
     std::fprintf(stderr,
                  "usage: coherent-bench SCENE.glb [--threads N] [--json] [--width W] [--height H] [--runs R] "
                  "[--ao-samples S] [--spatial-budget F]\n"
-                 "       [--bins B] [--max-leaf L] [--traversal-cost C] [--spatial-alpha A]   (build tuning, for experiments)\n"
+                 "       [--bins B] [--max-leaf L] [--traversal-cost C] [--spatial-alpha A]\n"
+                 "       [--greedy-collapse]   (build tuning, for experiments)\n"
                  "       [--only primary|ao|diffuse]\n");
     std::exit(2);
 }
@@ -109,6 +111,7 @@ Options parse(int argc, char** argv) {
                 usage("--spatial-budget must be a number in [0, 4]");
         } else if (a == "--bins") o.bins = parse_int(value("--bins"), "--bins", 2, 64);
         else if (a == "--only") o.only = value("--only");
+        else if (a == "--greedy-collapse") o.optimal_collapse = false;
         else if (a == "--max-leaf") o.max_leaf = parse_int(value("--max-leaf"), "--max-leaf", 1, 64);
         else if (a == "--spatial-alpha") {
             char* end = nullptr;
@@ -304,6 +307,7 @@ struct Row {
     double ratio_avx2 = -1.0;  // coherent rows: against Embree restricted to AVX2
     double agreement = -1.0;  // fraction of rays where both agree (coherent rows)
     double box_tests = -1.0, tri_tests = -1.0;  // per ray (coherent rows)
+    double node_visits = -1.0;  // wide nodes + leaves visited per ray (coherent rows)
 };
 
 std::string scene_name(const std::string& path) { return std::filesystem::path(path).stem().string(); }
@@ -342,6 +346,7 @@ int main(int argc, char** argv) {
         bo.max_leaf_size = opt.max_leaf;
         bo.traversal_cost = opt.traversal_cost;
         bo.spatial_split_alpha = opt.spatial_alpha;
+        bo.optimal_collapse = opt.optimal_collapse;
         arena.execute([&] { bvh.build(scene, bo); });
     }
     const BvhBuildStats& bs = bvh.build_stats();
@@ -349,15 +354,19 @@ int main(int argc, char** argv) {
                  opt.height, opt.threads);
     std::fprintf(table,
                  "  coherent build: %.3f s, %zu nodes, %zu leaves, depth %d, %.1f bytes/triangle, %zu references "
-                 "(spatial-split budget %.2f)\n",
+                 "(spatial-split budget %.2f)\n"
+                 "  wide nodes: %zu (%s collapse), SAH estimate of wide-node visits per ray entering the root %.2f\n",
                  bs.seconds, bs.nodes, bs.leaves, bs.depth, double(bs.bytes) / tris, bs.references,
-                 double(opt.spatial_budget));
+                 double(opt.spatial_budget), bs.wide_nodes, opt.optimal_collapse ? "optimal" : "greedy",
+                 bs.wide_node_visit_estimate);
     if (opt.json)
         std::printf("{\"scene\": \"%s\", \"rays\": \"build\", \"impl\": \"coherent\", \"threads\": %d, "
                     "\"build_seconds\": %.4f, \"bytes_per_triangle\": %.2f, \"triangles\": %zu, \"references\": %zu, "
-                    "\"spatial_split_budget\": %.2f}\n",
+                    "\"spatial_split_budget\": %.2f, \"collapse\": \"%s\", \"wide_nodes\": %zu, "
+                    "\"wide_node_visit_estimate\": %.3f}\n",
                     name.c_str(), opt.threads, bs.seconds, double(bs.bytes) / tris, tris, bs.references,
-                    double(opt.spatial_budget));
+                    double(opt.spatial_budget), opt.optimal_collapse ? "optimal" : "greedy", bs.wide_nodes,
+                    bs.wide_node_visit_estimate);
 
 #ifdef COHERENT_HAVE_EMBREE
     const std::string config = "threads=" + std::to_string(opt.threads);
@@ -432,6 +441,7 @@ int main(int argc, char** argv) {
         Row ro{set.name, "coherent", n / t_ours * 1e-6};
         ro.box_tests = double(counters.box_tests) / n;
         ro.tri_tests = double(counters.triangle_tests) / n;
+        ro.node_visits = double(counters.node_visits) / n;
 
 #ifdef COHERENT_HAVE_EMBREE
         std::vector<Hit> theirs(n);
@@ -486,20 +496,22 @@ int main(int argc, char** argv) {
 #endif
     }
 
-    std::fprintf(table, "\n  %-16s %-8s %-12s %10s %8s %10s %10s %10s %10s\n", "scene", "rays", "impl", "Mrays/s",
-                 "ratio", "ratio-avx2", "agree", "box/ray", "tri/ray");
+    std::fprintf(table, "\n  %-16s %-8s %-12s %10s %8s %10s %10s %10s %10s %10s\n", "scene", "rays", "impl",
+                 "Mrays/s", "ratio", "ratio-avx2", "agree", "box/ray", "tri/ray", "visits/ray");
     for (const Row& r : rows) {
         double ratio = -1.0;
         for (const Row& o : rows)
             if (o.rays == r.rays && o.impl == "embree" && r.impl == "coherent") ratio = r.mrays / o.mrays;
-        char ratio_s[16] = "", ratio2_s[16] = "", agree_s[16] = "", box_s[16] = "", tri_s[16] = "";
+        char ratio_s[16] = "", ratio2_s[16] = "", agree_s[16] = "", box_s[16] = "", tri_s[16] = "",
+             visit_s[16] = "";
         if (ratio >= 0) std::snprintf(ratio_s, sizeof ratio_s, "%.2f", ratio);
         if (r.ratio_avx2 >= 0) std::snprintf(ratio2_s, sizeof ratio2_s, "%.2f", r.ratio_avx2);
         if (r.agreement >= 0) std::snprintf(agree_s, sizeof agree_s, "%.5f", r.agreement);
         if (r.box_tests >= 0) std::snprintf(box_s, sizeof box_s, "%.1f", r.box_tests);
         if (r.tri_tests >= 0) std::snprintf(tri_s, sizeof tri_s, "%.1f", r.tri_tests);
-        std::fprintf(table, "  %-16s %-8s %-12s %10.2f %8s %10s %10s %10s %10s\n", name.c_str(), r.rays.c_str(),
-                     r.impl.c_str(), r.mrays, ratio_s, ratio2_s, agree_s, box_s, tri_s);
+        if (r.node_visits >= 0) std::snprintf(visit_s, sizeof visit_s, "%.1f", r.node_visits);
+        std::fprintf(table, "  %-16s %-8s %-12s %10.2f %8s %10s %10s %10s %10s %10s\n", name.c_str(),
+                     r.rays.c_str(), r.impl.c_str(), r.mrays, ratio_s, ratio2_s, agree_s, box_s, tri_s, visit_s);
         if (opt.json) {
             std::printf("{\"scene\": \"%s\", \"rays\": \"%s\", \"impl\": \"%s\", \"traversal\": \"single\", "
                         "\"threads\": %d, \"mrays_per_s\": %.3f",
@@ -508,8 +520,9 @@ int main(int argc, char** argv) {
             if (r.ratio_avx2 >= 0) std::printf(", \"ratio_vs_embree_avx2\": %.3f", r.ratio_avx2);
             if (r.agreement >= 0) std::printf(", \"agreement\": %.6f", r.agreement);
             if (r.box_tests >= 0)
-                std::printf(", \"box_tests_per_ray\": %.2f, \"triangle_tests_per_ray\": %.2f", r.box_tests,
-                            r.tri_tests);
+                std::printf(", \"box_tests_per_ray\": %.2f, \"triangle_tests_per_ray\": %.2f, "
+                            "\"node_visits_per_ray\": %.2f",
+                            r.box_tests, r.tri_tests, r.node_visits);
             std::printf("}\n");
         }
     }

@@ -61,6 +61,11 @@ struct BvhBuildOptions {
     // Spatial splits are tried only where the object split's children overlap
     // by more than this fraction of the root's surface area (Stich's alpha).
     float spatial_split_alpha = 1e-3f;
+    // Collapse of the binary tree into the 8-wide traversal nodes
+    // (bvh_layout.cpp): true = the SAH-optimal collapse (fewest expected node
+    // visits; Ylitie et al. 2017), false = the greedy one (open the largest
+    // child until eight). Both give the same hits; kept for comparison.
+    bool optimal_collapse = true;
 };
 
 struct BvhBuildStats {
@@ -70,6 +75,11 @@ struct BvhBuildStats {
     size_t bytes = 0;  // nodes + reordered triangle data
     int depth = 0;
     size_t references = 0;  // leaf slots (prim_order().size()): triangles plus spatial-split duplicates
+    size_t wide_nodes = 0;  // 8-wide traversal nodes
+    // Sum over the wide nodes below the root of area(node) / area(root): the
+    // SAH estimate of wide-node visits per ray that enters the root (what
+    // the optimal collapse minimises).
+    double wide_node_visit_estimate = 0.0;
 };
 
 class Bvh {
@@ -104,7 +114,7 @@ private:
     template <bool kAnyHit, bool kCount>
     bool traverse(const Ray& ray, Hit* hit, TraversalCounters* counters) const;
 
-    void build_traversal_layout(const Vec3f* triangle_vertices);
+    void build_traversal_layout(const Vec3f* triangle_vertices, bool optimal_collapse);
 
     std::vector<BvhNode> nodes_;
     std::vector<uint32_t> prim_order_;  // leaf slot -> scene triangle index

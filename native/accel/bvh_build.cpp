@@ -298,7 +298,7 @@ void Bvh::build_from(const Vec3f* verts, size_t triangle_count, const BvhBuildOp
 
     if (n > 0 && opt.spatial_split_budget > 0.0f) {
         build_spatial_bvh(verts, refs, opt, nodes_, prim_order_, stats_);
-        build_traversal_layout(verts);
+        build_traversal_layout(verts, opt.optimal_collapse);
     } else if (n > 0) {
         const RootBounds root = tbb::parallel_reduce(
             tbb::blocked_range<uint32_t>(0, n, kGrainSize), RootBounds{},
@@ -348,7 +348,7 @@ void Bvh::build_from(const Vec3f* verts, size_t triangle_count, const BvhBuildOp
 
         prim_order_ = std::move(refs);
         stats_.references = prim_order_.size();
-        build_traversal_layout(verts);
+        build_traversal_layout(verts, opt.optimal_collapse);
     }
 
     stats_.nodes = nodes_.size();

@@ -260,11 +260,13 @@ inline bool intersect_pack(const TrianglePack4& p, int lanes, const TriRay& r, f
 }
 
 // Tests a leaf's packs. Any hit: true on the first hit. Closest hit: true
-// when `best` improved. (Kept inline: an out-of-line leaf test and loop cost
-// ~10% on primary rays, see docs/results/traversal_foundation.md.)
+// when `best` improved. (Forced inline: an out-of-line leaf test and loop
+// cost ~10% on primary rays, and GCC left the any-hit instance out of line;
+// see docs/results/traversal_foundation.md.)
 template <bool kAnyHit>
-inline bool intersect_leaf(const TrianglePack4* packs, uint32_t first_pack, uint32_t count, const TriRay& r,
-                           float tmin, Closest& best) {
+__attribute__((always_inline)) inline bool intersect_leaf(const TrianglePack4* packs, uint32_t first_pack,
+                                                          uint32_t count, const TriRay& r, float tmin,
+                                                          Closest& best) {
     bool found = false;
     for (uint32_t k = 0; count > 0; ++k) {
         const int lanes = count >= 4 ? 4 : static_cast<int>(count);
@@ -313,6 +315,10 @@ __attribute__((always_inline)) inline bool traverse_wide(const WideNode8* nodes,
             if (leaf(current.ref, current.count)) return true;  // any-hit only
         } else {
             const WideNode8& n = nodes[current.ref];
+            // The child references (the node's fourth cache line) are read
+            // only after the box test; asking for them now overlaps that
+            // miss with the box planes' instead of serialising the two.
+            _mm_prefetch(reinterpret_cast<const char*>(n.ref), _MM_HINT_T0);
             __m256 entry_v;
             int mask = intersect_wide<kFused>(n, box_ray, tmin, cull, entry_v);
             if constexpr (kCount) {
@@ -333,16 +339,23 @@ __attribute__((always_inline)) inline bool traverse_wide(const WideNode8* nodes,
                         continue;
                     }
                     const int base = sp;
-                    // Test leaf children right away (a hit ends the query, and
-                    // a leaf needs no further node load); push interior
-                    // children in any order.
-                    for (; mask; mask &= mask - 1) {
-                        const int c = __builtin_ctz(mask);
-                        if (n.count[c] != 0) {
-                            if (leaf(n.ref[c], n.count[c])) return true;
-                        } else {
-                            stack[sp++] = {n.ref[c], 0, tmin};
-                        }
+                    // Interior children have count 0 (so do empty slots, but
+                    // their empty boxes are never in `mask`).
+                    const __m256i counts = _mm256_load_si256(reinterpret_cast<const __m256i*>(n.count));
+                    const int interior = mask & _mm256_movemask_ps(_mm256_castsi256_ps(
+                                                    _mm256_cmpeq_epi32(counts, _mm256_setzero_si256())));
+                    // Push interior children first (in any order) and start
+                    // loading the one popped next, so that its cache misses
+                    // overlap the leaf tests below.
+                    for (int m = interior; m; m &= m - 1) stack[sp++] = {n.ref[__builtin_ctz(m)], 0, tmin};
+                    if (sp > base) {
+                        const char* next = reinterpret_cast<const char*>(&nodes[stack[sp - 1].ref]);
+                        for (int line = 0; line < 4; ++line) _mm_prefetch(next + 64 * line, _MM_HINT_T0);
+                    }
+                    // Then test the leaf children (a hit ends the query).
+                    for (int m = mask & ~interior; m; m &= m - 1) {
+                        const int c = __builtin_ctz(m);
+                        if (leaf(n.ref[c], n.count[c])) return true;
                     }
                     if (sp > base) {
                         current = stack[--sp];

@@ -280,6 +280,53 @@ TEST(Bvh, SpatialSplitsLowerTheSahCostOnSlivers) {
     EXPECT_LT(b.box_tests + 4 * b.triangle_tests, a.box_tests + 4 * a.triangle_tests);
 }
 
+// The 8-wide collapse: the SAH-optimal one (default) and the greedy one must
+// give the same hits (both bit-identical to brute force), and the optimal one
+// must not cost more by its own objective, the summed area of the wide nodes
+// (the greedy collapse is one of the collapses it minimises over), nor, by
+// more than noise, in node visits measured on rays.
+TEST(Bvh, OptimalCollapseMatchesBruteForceAndVisitsNoMoreNodes) {
+    const auto random = random_soup(8000, 81, 10.0f, 1.0f);
+    const auto slivers = sliver_soup(3000, 82, Vec3f(0, 0, 0));
+    const auto sphere = icosphere(4, 3.0f, Vec3f(0.5f, -0.25f, 1.0f)).soup();
+    for (const auto* soup : {&random, &slivers, &sphere}) {
+        for (float budget : {0.0f, 0.3f}) {
+            BvhBuildOptions greedy_opt = with_budget(budget), optimal_opt = with_budget(budget);
+            greedy_opt.optimal_collapse = false;
+            optimal_opt.optimal_collapse = true;
+            Bvh greedy, optimal;
+            greedy.build(*soup, greedy_opt);
+            optimal.build(*soup, optimal_opt);
+            // The collapse changes only the traversal layout, never the binary tree.
+            ASSERT_EQ(greedy.nodes().size(), optimal.nodes().size());
+            ASSERT_EQ(greedy.prim_order(), optimal.prim_order());
+            ASSERT_GT(optimal.build_stats().wide_nodes, 0u);
+            EXPECT_LE(optimal.build_stats().wide_node_visit_estimate,
+                      greedy.build_stats().wide_node_visit_estimate * (1.0 + 1e-5));
+
+            const auto rays = random_rays(3000, 83, soup == &sphere ? 3.0f : 10.0f);
+            size_t hits = 0;
+            expect_matches_brute_force(optimal, *soup, rays, &hits);
+            EXPECT_GT(hits, 300u);
+            TraversalCounters cg, co;
+            for (const Ray& r : rays) {
+                Hit hg, ho;
+                const bool g = greedy.intersect(r, hg, &cg);
+                const bool o = optimal.intersect(r, ho, &co);
+                ASSERT_EQ(g, o);
+                if (g) {
+                    EXPECT_EQ(hg.prim, ho.prim);
+                    EXPECT_EQ(hg.t, ho.t);
+                    EXPECT_EQ(hg.u, ho.u);
+                    EXPECT_EQ(hg.v, ho.v);
+                }
+            }
+            // Same leaves, so the same triangle work up to visiting order.
+            EXPECT_LE(double(co.node_visits), 1.02 * double(cg.node_visits));
+        }
+    }
+}
+
 TEST(Bvh, IcosphereAndGridMatchBruteForce) {
     // Closed meshes with shared edges: ties between neighbours are common.
     const auto sphere = icosphere(4, 3.0f, Vec3f(0.5f, -0.25f, 1.0f)).soup();
