@@ -34,6 +34,9 @@ std::string render_report_json(const RenderReport& r) {
     j["seed"] = r.settings.seed;
     j["threads"] = r.settings.threads;
     j["max_bounces"] = r.settings.max_bounces;
+    j["sampler"] = std::string(sampler_type_name(r.settings.resolved_sampler()));  // Auto resolved
+    j["packet"] = {r.settings.packet_width, r.settings.packet_height};
+    j["sequences"] = std::string(sequence_scope_name(r.settings.sequence_scope));
     // Non-UTF-8 bytes (e.g. in a file name) are replaced instead of throwing.
     return j.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
 }

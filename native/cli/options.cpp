@@ -2,6 +2,7 @@
 
 #include <charconv>
 #include <cstring>
+#include <optional>
 #include <sstream>
 
 namespace coherent::cli {
@@ -32,6 +33,7 @@ constexpr int64_t kMaxPixels = int64_t(1) << 26;  // 8192 x 8192: ~3 GB of film
 constexpr int kMaxSpp = 1 << 20;
 constexpr int kMaxThreads = 4096;
 constexpr int kMaxBounces = 1024;
+constexpr int kMaxPacket = 16;
 
 bool parse_output(RenderOptions& o, const char* v, std::string&) {
     o.output = v;
@@ -48,6 +50,35 @@ bool parse_threads(RenderOptions& o, const char* v, std::string& e) {
 }
 bool parse_max_bounces(RenderOptions& o, const char* v, std::string& e) {
     return parse_integer(v, 0, kMaxBounces, "--max-bounces", o.settings.max_bounces, e);
+}
+bool parse_sampler(RenderOptions& o, const char* v, std::string& e) {
+    const std::optional<SamplerType> t = parse_sampler_type(v);
+    if (!t) {
+        e = std::string("--sampler expects spt, cpt, icpt or auto, got '") + v + "'";
+        return false;
+    }
+    o.settings.sampler = *t;
+    return true;
+}
+bool parse_sequences(RenderOptions& o, const char* v, std::string& e) {
+    const std::optional<SequenceScope> s = parse_sequence_scope(v);
+    if (!s) {
+        e = std::string("--sequences expects packet or image, got '") + v + "'";
+        return false;
+    }
+    o.settings.sequence_scope = *s;
+    return true;
+}
+// --packet WxH, e.g. 4x4. ICPT's Latin squares go up to 16 a side.
+bool parse_packet(RenderOptions& o, const char* v, std::string& e) {
+    const char* x = std::strchr(v, 'x');
+    if (!x) {
+        e = std::string("--packet expects WxH (e.g. 4x4), got '") + v + "'";
+        return false;
+    }
+    const std::string w(v, size_t(x - v)), h(x + 1);
+    return parse_integer(w.c_str(), 1, kMaxPacket, "--packet width", o.settings.packet_width, e) &&
+           parse_integer(h.c_str(), 1, kMaxPacket, "--packet height", o.settings.packet_height, e);
 }
 bool parse_json(RenderOptions& o, const char*, std::string&) {
     o.json = true;
@@ -101,6 +132,20 @@ const std::vector<OptionSpec>& render_option_table() {
          parse_threads},
         {"--max-bounces", nullptr, "B", "maximum path length in bounces (default " + std::to_string(d.max_bounces) + ")",
          parse_max_bounces},
+        {"--sampler", nullptr, "S",
+         "random sequences: spt (independent per pixel), cpt (one per sample, shared by the pixels of a packet), icpt "
+         "(packet blocks split into randomised Latin-hypercube subsets that share sequences), auto (icpt below " +
+             std::to_string(kAutoCptMinSpp) + " spp, else cpt) (default " +
+             std::string(sampler_type_name(d.sampler)) + ")",
+         parse_sampler},
+        {"--packet", nullptr, "WxH",
+         "packet size in pixels, up to 16x16; icpt blocks are square, of the shorter side (default " +
+             std::to_string(d.packet_width) + "x" + std::to_string(d.packet_height) + ")",
+         parse_packet},
+        {"--sequences", nullptr, "SCOPE",
+         "cpt/icpt: share sequences per packet (packet: the paper's Fig. 3) or over the whole image (image: its "
+         "equation 3) (default " + std::string(sequence_scope_name(d.sequence_scope)) + ")",
+         parse_sequences},
         {"--json", nullptr, nullptr, "print render statistics as one JSON object on stdout", parse_json},
         {"--all-features", nullptr, nullptr,
          "run the general kernel with every effect on instead of the one specialised for this scene's features "

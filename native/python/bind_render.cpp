@@ -37,13 +37,19 @@ public:
         scene_->ensure_finalized();
         // Claim the scene before building: it must not change under the BVH.
         scene_->active_renderers.fetch_add(1);
+        // Reuse the scene's BVH when its triangles did not change since it was
+        // built (read and written with the GIL held: PyScene's bookkeeping is
+        // only touched from Python threads).
+        std::shared_ptr<const Bvh> bvh = scene_->bvh;
+        bvh_reused_ = bvh != nullptr;
         try {
             py::gil_scoped_release unlocked;  // the BVH build takes time
-            renderer_ = std::make_unique<Renderer>(scene_->scene, settings);
+            renderer_ = std::make_unique<Renderer>(scene_->scene, settings, std::move(bvh));
         } catch (...) {
             scene_->active_renderers.fetch_sub(1);
             throw;
         }
+        scene_->bvh = renderer_->shared_bvh();
         settings_ = settings;
     }
 
@@ -218,6 +224,7 @@ public:
         d["depth"] = b.depth;
         return d;
     }
+    bool bvh_reused() const { return bvh_reused_; }
     std::vector<std::string> features() const { return renderer_->active_features().names(); }
     const RenderSettings& settings() const { return settings_; }
     const Film& film() const { return renderer_->film(); }
@@ -265,6 +272,7 @@ private:
     std::shared_ptr<PyScene> scene_;  // keeps the scene alive as long as this renderer
     std::unique_ptr<Renderer> renderer_;
     RenderSettings settings_;
+    bool bvh_reused_ = false;  // the BVH came from the scene's cache instead of being built
     std::atomic<bool> rendering_{false};  // a render (sync or async) is in progress
 
     std::thread worker_;  // start()'s render thread
@@ -288,7 +296,9 @@ std::unique_ptr<PyRenderer> make_renderer(std::shared_ptr<PyScene> scene, int wi
                                           unsigned long long seed, int threads, int max_bounces,
                                           int diffuse_bounces, int glossy_bounces, int transmission_bounces,
                                           int rr_min_bounces, bool transparent, const py::object& border,
-                                          int tile_size, bool force_all_features) {
+                                          int tile_size, bool force_all_features, const std::string& sampler,
+                                          const py::object& packet, bool progressive_display,
+                                          const std::string& sequences) {
     if (!scene) throw py::type_error("scene: expected a coherent Scene, got None");
     constexpr int kMaxSize = 1 << 16;
     RenderSettings s;
@@ -305,6 +315,17 @@ std::unique_ptr<PyRenderer> make_renderer(std::shared_ptr<PyScene> scene, int wi
     s.transparent_film = transparent;
     s.tile_size = checked_int(tile_size, 1, 4096, "tile_size");
     s.force_all_features = force_all_features;
+    // Sampler (native/sample): "spt" | "cpt" | "icpt" | "auto"; auto resolves
+    // with progressive_display (True for the viewport) and spp.
+    if (const auto t = parse_sampler_type(sampler)) s.sampler = *t;
+    else throw py::value_error("sampler: expected 'spt', 'cpt', 'icpt' or 'auto', got '" + sampler + "'");
+    const auto pk = packet.cast<std::vector<int>>();
+    if (pk.size() != 2) throw py::value_error("packet: expected (width, height) in pixels");
+    s.packet_width = checked_int(pk[0], 1, 16, "packet width");
+    s.packet_height = checked_int(pk[1], 1, 16, "packet height");
+    s.progressive_display = progressive_display;
+    if (const auto sc = parse_sequence_scope(sequences)) s.sequence_scope = *sc;
+    else throw py::value_error("sequences: expected 'packet' or 'image', got '" + sequences + "'");
     if (!border.is_none()) {
         const auto b = border.cast<std::vector<int>>();
         if (b.size() != 4) throw py::value_error("border: expected (x0, y0, x1, y1) in pixels");
@@ -329,12 +350,21 @@ is kept alive and read-only while the Renderer exists.
 
 border=(x0, y0, x1, y1) in pixels, y = 0 at the TOP row, x1/y1 exclusive: the
 film (and every pass) then covers only that region.
+
+sampler="spt" | "cpt" | "icpt" | "auto" picks the random sequences (Sadeghi et
+al. 2009); "auto" gives ICPT when progressive_display=True (the viewport) or
+below 256 spp, else CPT. packet=(w, h): packet size in pixels (ICPT blocks
+are square, of the shorter side), at most 16. sequences="packet" | "image":
+CPT/ICPT share sequences per packet (the paper's Fig. 3) or over the whole
+image (its equation 3).
 )doc")
         .def(py::init(&make_renderer), py::arg("scene"), py::kw_only(), py::arg("width") = 512,
              py::arg("height") = 512, py::arg("spp") = 16, py::arg("seed") = 0, py::arg("threads") = 0,
              py::arg("max_bounces") = 12, py::arg("diffuse_bounces") = 4, py::arg("glossy_bounces") = 4,
              py::arg("transmission_bounces") = 12, py::arg("rr_min_bounces") = 3, py::arg("transparent") = false,
-             py::arg("border") = py::none(), py::arg("tile_size") = 32, py::arg("force_all_features") = false)
+             py::arg("border") = py::none(), py::arg("tile_size") = 32, py::arg("force_all_features") = false,
+             py::arg("sampler") = "spt", py::arg("packet") = py::make_tuple(4, 4),
+             py::arg("progressive_display") = false, py::arg("sequences") = "packet")
         .def("render", &PyRenderer::render, py::arg("progress") = py::none(), R"doc(
 Renders all samples; returns False if cancelled. `progress(dict)` is called
 after every sample pass (and periodically within long passes) with keys
@@ -360,6 +390,8 @@ channels): 'Combined' (RGBA), 'Depth' (1; 1e10 where nothing was hit) or
 'Normal' (XYZ). flip_y=True orders rows bottom-up as Blender expects.)doc")
         .def("stats", &PyRenderer::stats, "Render statistics: rays per type, traversal counters, time.")
         .def("bvh_stats", &PyRenderer::bvh_stats, "BVH build statistics.")
+        .def_property_readonly("bvh_reused", &PyRenderer::bvh_reused,
+                               "True if this Renderer reused the BVH a previous one built over the same scene.")
         .def_property_readonly("features", &PyRenderer::features, "Features the kernels were specialised for.")
         .def_property_readonly("width", [](const PyRenderer& r) { return r.settings().width; })
         .def_property_readonly("height", [](const PyRenderer& r) { return r.settings().height; })

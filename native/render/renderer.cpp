@@ -15,6 +15,7 @@
 #include <chrono>
 #include <thread>
 
+#include "../sample/image_sampler.h"
 #include "light_sampling.h"
 #include "path_tracer.h"
 
@@ -26,7 +27,7 @@ using Clock = std::chrono::steady_clock;
 
 struct TileJob {
     const PathContext* ctx;
-    const SptSampler* sampler;
+    const ImageSampler* sampler;
     Film* film;
     int x0, y0, x1, y1;  // full-frame pixel rectangle, half-open
     int border_x0, border_y0;
@@ -40,8 +41,8 @@ void render_tile(const TileJob& job, RenderStats& st) {
     for (int y = job.y0; y < job.y1; ++y) {
         if (job.cancelled->load(std::memory_order_relaxed)) return;
         for (int x = job.x0; x < job.x1; ++x) {
-            const PathSampler<SptSampler> ps(*job.sampler, uint32_t(x), uint32_t(y), job.sample);
-            const PathOutput o = trace_path<SptSampler, kGlass, kDepthOfField, kLights>(*job.ctx, ps, x, y, st);
+            const PathSampler<ImageSampler> ps(*job.sampler, uint32_t(x), uint32_t(y), job.sample);
+            const PathOutput o = trace_path<ImageSampler, kGlass, kDepthOfField, kLights>(*job.ctx, ps, x, y, st);
             // No NaN/Inf ever reaches the film: discard the whole sample and count it.
             if (!is_finite(o.radiance) || !std::isfinite(o.alpha) || std::isnan(o.depth) || !is_finite(o.normal)) {
                 ++st.nonfinite_samples;
@@ -70,7 +71,10 @@ TileFn select_kernel(const SceneFeatures& f, bool has_lights) {
 
 }  // namespace
 
-Renderer::Renderer(const Scene& scene, const RenderSettings& settings) : scene_(scene), settings_(settings) {
+Renderer::Renderer(const Scene& scene, const RenderSettings& settings) : Renderer(scene, settings, nullptr) {}
+
+Renderer::Renderer(const Scene& scene, const RenderSettings& settings, std::shared_ptr<const Bvh> bvh)
+    : scene_(scene), settings_(settings) {
     features_ = settings_.force_all_features ? SceneFeatures::all() : scene_.features;
     // Clamp the border to the frame; an empty border renders nothing.
     settings_.width = std::max(settings_.width, 1);
@@ -80,7 +84,12 @@ Renderer::Renderer(const Scene& scene, const RenderSettings& settings) : scene_(
     settings_.border_x0 = std::clamp(settings_.border_x0, 0, settings_.border_x1);
     settings_.border_y0 = std::clamp(settings_.border_y0, 0, settings_.border_y1);
     settings_.tile_size = std::max(settings_.tile_size, 1);
-    bvh_.build(scene_);
+    if (!bvh) {  // the usual case: build over the scene's triangles
+        auto built = std::make_shared<Bvh>();
+        built->build(scene_);
+        bvh = std::move(built);
+    }
+    bvh_ = std::move(bvh);
     film_ = Film(settings_.border_width(), settings_.border_height());
 }
 
@@ -89,8 +98,16 @@ Renderer::~Renderer() = default;
 bool Renderer::render(const ProgressCallback& progress) {
     const auto start = Clock::now();
     const LightSet lights(scene_);
-    const PathContext ctx{&scene_, &bvh_, &lights, &settings_};
-    const SptSampler sampler(settings_.seed);
+    const PathContext ctx{&scene_, bvh_.get(), &lights, &settings_};
+    // The sampler's tables cover one pass (one sample over the image) and are
+    // rebuilt per pass: a few KB, independent of resolution and spp.
+    SamplerConfig sampler_config;
+    sampler_config.type = settings_.resolved_sampler();
+    sampler_config.seed = settings_.seed;
+    sampler_config.packet_width = settings_.packet_width;
+    sampler_config.packet_height = settings_.packet_height;
+    sampler_config.scope = settings_.sequence_scope;
+    sampler_config.dims = PathDims::count(settings_.max_bounces);
     // Without any emitter no path can carry light: the kernel without NEE,
     // light hits and world MIS is exact. force_all_features keeps it on.
     const bool use_lights = settings_.force_all_features || (!lights.empty() && features_.any_light());
@@ -122,6 +139,7 @@ bool Renderer::render(const ProgressCallback& progress) {
     };
 
     for (int pass = 0; pass < spp && !cancelled() && tiles > 0; ++pass) {
+        const ImageSampler sampler(sampler_config, uint32_t(pass), 1);
         tbb::enumerable_thread_specific<RenderStats> local;
         std::atomic<int> tiles_done{0};
         arena.execute([&] {

@@ -3,6 +3,8 @@
 
 #include <cstdint>
 
+#include "../sample/sampler_type.h"
+
 namespace coherent {
 
 struct RenderSettings {
@@ -28,11 +30,26 @@ struct RenderSettings {
     float clamp_direct = 0.0f;
     float clamp_indirect = 0.0f;
 
+    // Which random numbers paths consume (native/sample): SPT, CPT, ICPT, or
+    // Auto, resolved by resolve_sampler_type() (sample/sampler_type.h): ICPT
+    // when intermediate results are displayed (progressive_display, set by
+    // the viewport), CPT for final renders with spp >= kAutoCptMinSpp, ICPT
+    // below that. Spt by default: independent pixel errors, as before.
+    SamplerType sampler = SamplerType::Spt;
+    // Packet size in pixels; ICPT partitions square blocks of side
+    // min(packet_width, packet_height) (at most 16).
+    int packet_width = 4, packet_height = 4;
+    // CPT/ICPT sequences shared per packet (paper Fig. 3) or over the whole
+    // image (paper eq. 3); see SequenceScope in sample/sampler_type.h.
+    SequenceScope sequence_scope = SequenceScope::Packet;
+    bool progressive_display = false;   // a front end shows passes as they finish
+
     bool transparent_film = false;      // Film > Transparent: world seen directly gives alpha 0
     bool force_all_features = false;    // ignore SceneFeatures specialisation (benchmarks)
     int tile_size = 32;
 
     int border_width() const { return (border_x1 < 0 ? width : border_x1) - border_x0; }
+    SamplerType resolved_sampler() const { return resolve_sampler_type(sampler, progressive_display, spp); }
     int border_height() const { return (border_y1 < 0 ? height : border_y1) - border_y0; }
 };
 

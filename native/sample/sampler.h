@@ -5,11 +5,17 @@
 // Interface (a compile-time concept, so the per-path kernel inlines the draw):
 //   struct S {
 //       float get(uint32_t px, uint32_t py, uint32_t sample, uint32_t dim) const;
+//       SampleStream stream(uint32_t px, uint32_t py, uint32_t sample) const;
 //   };
+// where stream(px, py, sample).get(dim) == get(px, py, sample, dim). A path
+// resolves its stream once (which sequence, which table row) and then pays a
+// table load or one hash per dimension.
 // Invariant: get() is a pure function of its arguments and the sampler's
-// construction parameters (seed), so the image does not depend on thread
-// count or tile order. CPT/ICPT (tabulated per-packet sequences) are added as
-// further types with the same get().
+// construction parameters (seed, packet size), so the image does not depend
+// on thread count, tile order, or which samples a table happens to cover.
+//
+// Implementations: SptSampler (here), CptSampler and IcptSampler
+// (coherent_samplers.h), ImageSampler (image_sampler.h) picks one at run time.
 #pragma once
 
 #include <cstdint>
@@ -18,15 +24,41 @@
 
 namespace coherent {
 
+// The numbers of one (pixel, sample): dimensions below `tabulated_dims` come
+// from a precomputed row, the rest from a counter-based hash of (key, sample,
+// dim). Samplers fill tables with that same hash, so both give equal values.
+class SampleStream {
+public:
+    SampleStream(uint64_t key, uint32_t sample, const float* row = nullptr, uint32_t tabulated_dims = 0)
+        : row_(row), tabulated_dims_(row ? tabulated_dims : 0), key_(key), sample_word_(uint64_t(sample) << 32) {}
+
+    float get(uint32_t dim) const {
+        return dim < tabulated_dims_ ? row_[dim] : to_unit_float(hash_combine(key_, sample_word_ | dim));
+    }
+
+    // The counter-based draw behind every sampler: [0, 1), never 1.0.
+    static float hashed(uint64_t key, uint32_t sample, uint32_t dim) {
+        return to_unit_float(hash_combine(key, (uint64_t(sample) << 32) | dim));
+    }
+
+private:
+    const float* row_;
+    uint32_t tabulated_dims_;
+    uint64_t key_;
+    uint64_t sample_word_;
+};
+
 // SPT: an independent random sequence per pixel, drawn from a counter-based hash.
 class SptSampler {
 public:
     explicit SptSampler(uint64_t seed = 0) : seed_key_(mix64(seed ^ 0x5bd1e9955bd1e995ull)) {}
 
-    float get(uint32_t px, uint32_t py, uint32_t sample, uint32_t dim) const {
+    SampleStream stream(uint32_t px, uint32_t py, uint32_t sample) const {
         const uint64_t pixel = (uint64_t(py) << 32) | px;
-        const uint64_t h = hash_combine(hash_combine(seed_key_, pixel), (uint64_t(sample) << 32) | dim);
-        return to_unit_float(h);
+        return SampleStream(hash_combine(seed_key_, pixel), sample);
+    }
+    float get(uint32_t px, uint32_t py, uint32_t sample, uint32_t dim) const {
+        return stream(px, py, sample).get(dim);
     }
 
 private:
@@ -36,20 +68,22 @@ private:
 // The stream of numbers one path consumes. Dimensions are assigned in a fixed
 // layout (see PathDims) so the same (pixel, sample) always uses the same
 // dimension for the same decision, which keeps samplers with structure
-// (stratified, Latin hypercube) effective.
+// (stratified, Latin hypercube) effective and makes CPT's shared sequence
+// drive the same decision in every pixel: rays of a packet that are at the
+// same bounce consumed the same numbers for it.
 template <class Sampler>
 class PathSampler {
 public:
-    PathSampler(const Sampler& s, uint32_t px, uint32_t py, uint32_t sample)
-        : s_(s), px_(px), py_(py), sample_(sample) {}
-    float get(uint32_t dim) const { return s_.get(px_, py_, sample_, dim); }
+    PathSampler(const Sampler& s, uint32_t px, uint32_t py, uint32_t sample) : stream_(s.stream(px, py, sample)) {}
+    float get(uint32_t dim) const { return stream_.get(dim); }
 
 private:
-    const Sampler& s_;
-    uint32_t px_, py_, sample_;
+    SampleStream stream_;
 };
 
-// Fixed dimension layout of a path sample.
+// Fixed dimension layout of a path sample. Each bounce owns a fixed block of
+// kPerBounce dimensions whether or not it uses them (e.g. roulette before
+// rr_min_bounces), so bounce b of every path reads the same dimensions.
 struct PathDims {
     static constexpr uint32_t kPixelX = 0, kPixelY = 1, kLensU = 2, kLensV = 3;
     static constexpr uint32_t kFirstBounce = 4;
@@ -58,6 +92,12 @@ struct PathDims {
     static constexpr uint32_t kLightPick = 0, kLightU = 1, kLightV = 2;
     static constexpr uint32_t kBsdfLobe = 3, kBsdfU = 4, kBsdfV = 5, kRoulette = 6, kLightExtra = 7;
     static constexpr uint32_t bounce(int b, uint32_t offset) { return kFirstBounce + uint32_t(b) * kPerBounce + offset; }
+    // Dimensions a path with at most `max_bounces` bounces can read: bounce
+    // indices 0..max_bounces sample (the ray after the last one only collects
+    // emission).
+    static constexpr uint32_t count(int max_bounces) {
+        return kFirstBounce + uint32_t(max_bounces < 0 ? 0 : max_bounces + 1) * kPerBounce;
+    }
 };
 
 }  // namespace coherent

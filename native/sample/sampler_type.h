@@ -1,0 +1,87 @@
+// Which sampler draws a render's random numbers, and the rule that resolves
+// SamplerType::Auto. Kept apart from the samplers so RenderSettings can name
+// the choice without pulling in any sampler code.
+#pragma once
+
+#include <cstdint>
+#include <optional>
+#include <string_view>
+
+namespace coherent {
+
+// Sadeghi et al. 2009, "Coherent Path Tracing":
+//   Spt:  standard path tracing, an independent sequence per pixel and sample.
+//   Cpt:  coherent path tracing, one sequence per sample shared by the pixels
+//         of a packet (or of the whole image, see SequenceScope).
+//   Icpt: interleaved CPT, packet blocks split into Latin-square subsets,
+//         one shared sequence per subset, the split re-randomised per block
+//         and sample.
+//   Auto: resolved by resolve_sampler_type() below.
+enum class SamplerType : uint8_t { Spt, Cpt, Icpt, Auto };
+
+// Below this many samples per pixel a final render picks ICPT over CPT. A
+// judgement call from the paper's Fig. 2 and docs/results/sampler_rmse.md:
+// CPT's error is as large as SPT's at every sample count but structured
+// (neighbour correlation ~0.7 at any spp), which is obvious at 36 spp and
+// faint once the error itself is small, from a few hundred spp on.
+constexpr int kAutoCptMinSpp = 256;
+
+// The paper's recommendation (section 4): CPT is the fastest and its
+// structured noise vanishes as samples accumulate, so it is best "to render
+// noise free images with a high number of samples"; ICPT hides the structure
+// and is the choice "when intermediate results are displayed". Hence:
+//   progressive display (viewport, or any front end showing passes)  -> ICPT
+//   final render with spp >= kAutoCptMinSpp                          -> CPT
+//   final render with fewer samples (noise stays visible)            -> ICPT
+// Never returns Auto.
+constexpr SamplerType resolve_sampler_type(SamplerType requested, bool progressive_display, int spp) {
+    if (requested != SamplerType::Auto) return requested;
+    if (progressive_display) return SamplerType::Icpt;
+    return spp >= kAutoCptMinSpp ? SamplerType::Cpt : SamplerType::Icpt;
+}
+
+// Over which pixels CPT and ICPT share their sequences. The paper is not
+// uniform on this: equation (3) and the abstract share u_k between "all the
+// pixels in each sample" (Image), while the introduction ("the same sequence
+// of random numbers for all rays in a packet"), section 2.3 ("four different
+// random sequences per 8x8 block") and Fig. 3 ("both cases need 4 sequences
+// of random numbers for an 8x8 block" for CPT and ICPT) describe sequences
+// local to a packet (Packet):
+//   Packet: CPT draws one sequence per packet (packet_width x packet_height
+//           pixels); ICPT n sequences per group of 2x2 blocks (the paper's
+//           8x8 pixels for n = 4), each subset j of the group's blocks
+//           forming one coherent packet of 4n rays.
+//   Image:  CPT one sequence per sample for the whole image, ICPT n.
+// Coherence inside a packet is the same, and so is the RMSE. Image makes
+// CPT's error pattern identical everywhere (long streaks, errors correlated
+// across packet edges) and repeats ICPT's fireflies in every block (dotted
+// rows); Packet confines both to a packet or region
+// (docs/results/sampler_rmse.md), so it is the default.
+enum class SequenceScope : uint8_t { Packet, Image };
+
+constexpr std::string_view sequence_scope_name(SequenceScope s) { return s == SequenceScope::Image ? "image" : "packet"; }
+
+inline std::optional<SequenceScope> parse_sequence_scope(std::string_view name) {
+    for (SequenceScope s : {SequenceScope::Packet, SequenceScope::Image})
+        if (name == sequence_scope_name(s)) return s;
+    return std::nullopt;
+}
+
+constexpr std::string_view sampler_type_name(SamplerType t) {
+    switch (t) {
+        case SamplerType::Spt: return "spt";
+        case SamplerType::Cpt: return "cpt";
+        case SamplerType::Icpt: return "icpt";
+        case SamplerType::Auto: return "auto";
+    }
+    return "auto";
+}
+
+// Case-sensitive lower-case names as printed by sampler_type_name().
+inline std::optional<SamplerType> parse_sampler_type(std::string_view name) {
+    for (SamplerType t : {SamplerType::Spt, SamplerType::Cpt, SamplerType::Icpt, SamplerType::Auto})
+        if (name == sampler_type_name(t)) return t;
+    return std::nullopt;
+}
+
+}  // namespace coherent
