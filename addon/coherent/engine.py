@@ -177,7 +177,8 @@ class CoherentRenderEngine(bpy.types.RenderEngine):
             seed=props.seed_for_frame(scene.frame_current), threads=render_threads(scene),
             max_bounces=props.max_bounces, diffuse_bounces=props.diffuse_bounces,
             glossy_bounces=props.glossy_bounces, transmission_bounces=props.transmission_bounces,
-            transparent=render.film_transparent, border=border, tile_size=props.tile_size)
+            transparent=render.film_transparent, border=border, tile_size=props.tile_size,
+            progressive_display=False, **props.sampler_kwargs())
         build_seconds = time.perf_counter() - build_start
         self._renderer = renderer
 

@@ -4,7 +4,7 @@
 from __future__ import annotations
 
 import bpy
-from bpy.props import BoolProperty, IntProperty, PointerProperty
+from bpy.props import BoolProperty, EnumProperty, IntProperty, IntVectorProperty, PointerProperty
 
 
 class CoherentRenderSettings(bpy.types.PropertyGroup):
@@ -20,6 +20,23 @@ class CoherentRenderSettings(bpy.types.PropertyGroup):
     use_animated_seed: BoolProperty(
         name="Animated Seed", description="Combine the seed with the frame number so noise changes per frame",
         default=False)
+
+    # Random sequences (Sadeghi et al. 2009, "Coherent Path Tracing").
+    sampler: EnumProperty(
+        name="Sampler", description="How the random numbers of paths are shared between pixels",
+        items=(
+            ("SPT", "SPT", "Standard path tracing: an independent random sequence per pixel and sample"),
+            ("CPT", "CPT", "Coherent path tracing: one sequence per sample shared by every pixel; coherent "
+                           "secondary rays, structured noise that vanishes at high sample counts"),
+            ("ICPT", "ICPT", "Interleaved coherent path tracing: packet blocks split into randomised "
+                             "Latin-hypercube subsets that share sequences; hides CPT's structured noise"),
+            ("AUTO", "Auto", "ICPT in the viewport and for final renders below 256 samples, CPT above"),
+        ),
+        default="AUTO")
+    packet_size: IntVectorProperty(
+        name="Packet Size", description="Ray packet size in pixels (width, height); ICPT uses square blocks "
+                                        "of the shorter side",
+        size=2, default=(4, 4), min=1, max=16)
 
     max_bounces: IntProperty(
         name="Total", description="Maximum number of bounces of any kind",
@@ -41,6 +58,14 @@ class CoherentRenderSettings(bpy.types.PropertyGroup):
     tile_size: IntProperty(
         name="Tile Size", description="Edge length in pixels of the image tiles threads work on",
         default=32, min=4, max=1024)
+
+    def sampler_kwargs(self):
+        """Keyword arguments of _coherent.Renderer for the sampler settings.
+
+        Front ends add progressive_display=True where passes are shown as they
+        finish (the viewport), which makes AUTO pick ICPT.
+        """
+        return {"sampler": self.sampler.lower(), "packet": (int(self.packet_size[0]), int(self.packet_size[1]))}
 
     def seed_for_frame(self, frame):
         """The sampler seed for `frame`: constant unless use_animated_seed."""

@@ -44,6 +44,9 @@ class RENDER_PT_coherent_sampling(CoherentButtonsPanel, bpy.types.Panel):
         row = col.row(align=True)
         row.prop(props, "seed")
         row.prop(props, "use_animated_seed", text="", icon="TIME")
+        col = layout.column()
+        col.prop(props, "sampler")
+        col.prop(props, "packet_size")
 
 
 class RENDER_PT_coherent_light_paths(CoherentButtonsPanel, bpy.types.Panel):

@@ -12,9 +12,9 @@ drawn no timer and no thread is left, and the CPU is idle.
 Progressive restart: after any change the image is rendered in stages, a
 coarse one first (at most FIRST_STAGE_PIXELS pixels, 1 sample: it shows
 within tens of milliseconds), then twice the resolution per stage, then the
-full viewport resolution with the Viewport sample count (with the ICPT
-sampler where the native module has it: each pass spreads its error evenly
-over the image, the paper's answer for intermediate results). A restarted render
+full viewport resolution with the Viewport sample count (the Auto sampler
+is ICPT here: each pass spreads its error evenly over the image, the paper's
+answer for intermediate results). A restarted render
 never shows the previous image (which would be stale): draw() waits up to
 FIRST_FRAME_WAIT for the new coarse pass instead.
 
@@ -119,30 +119,6 @@ def progressive_stages(width, height, samples):
         divisor //= 2
     stages.append((1, samples))
     return stages
-
-
-# Whether the native Renderer accepts sampler="icpt" (None: not tried yet).
-_icpt_supported = None
-
-
-def _make_renderer(native, scene, kwargs):
-    """A Renderer with the ICPT sampler where the native module has it.
-
-    ICPT is the paper's sampler for displaying intermediate results: every
-    pass spreads its error evenly over the image. Older modules lack the
-    sampler= argument; they render with their default sampler.
-    """
-    global _icpt_supported
-    if _icpt_supported is not False and "sampler" in (native.Renderer.__init__.__doc__ or ""):
-        try:
-            renderer = native.Renderer(scene, sampler="icpt", **kwargs)
-            _icpt_supported = True
-            return renderer
-        except (TypeError, ValueError) as e:
-            if "sampler" not in str(e):
-                raise
-            _icpt_supported = False
-    return native.Renderer(scene, **kwargs)
 
 
 def _tag_rendered_views():
@@ -406,13 +382,13 @@ class ViewportSession:
                       spp=samples, seed=props.seed, threads=render_threads(scene), max_bounces=props.max_bounces,
                       diffuse_bounces=props.diffuse_bounces, glossy_bounces=props.glossy_bounces,
                       transmission_bounces=props.transmission_bounces, transparent=scene.render.film_transparent,
-                      tile_size=props.tile_size)
+                      tile_size=props.tile_size, progressive_display=True, **props.sampler_kwargs())
         if not self.scene.has_bvh:
             # Built here rather than by the Renderer to choose its quality;
             # every later Renderer over these triangles reuses it.
             self.bvh_seconds = self.scene.build_bvh(spatial_splits=not self.fast_bvh)
             self.counters["bvh_builds"] += 1
-        self.renderer = _make_renderer(native, self.scene, kwargs)
+        self.renderer = native.Renderer(self.scene, **kwargs)
         self.renderer.start()
 
     def stop_renderer_only(self):
