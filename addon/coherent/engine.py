@@ -31,6 +31,7 @@ _PASSES = {
     "Combined": ("RGBA", "COLOR"),
     "Depth": ("Z", "VALUE"),
     "Normal": ("XYZ", "VECTOR"),
+    "Error": ("X", "VALUE"),
 }
 
 
@@ -39,6 +40,11 @@ def _format_time(seconds):
     minutes, secs = divmod(int(round(seconds)), 60)
     hours, minutes = divmod(minutes, 60)
     return f"{hours}:{minutes:02d}:{secs:02d}" if hours else f"{minutes:02d}:{secs:02d}"
+
+
+def _format_error(estimate):
+    """The relative RMSE estimate as a percentage, or "n/a" before 2 passes."""
+    return "n/a" if estimate is None else f"{100.0 * estimate:.1f} %"
 
 
 def render_size(render):
@@ -121,6 +127,9 @@ class CoherentRenderEngine(bpy.types.RenderEngine):
             self.register_pass(scene, renderlayer, "Depth", 1, "Z", "VALUE")
         if renderlayer.use_pass_normal:
             self.register_pass(scene, renderlayer, "Normal", 3, "XYZ", "VECTOR")
+        # Scene-wide, not per view layer: the estimate belongs to the render.
+        if scene is not None and scene.coherent.use_pass_error:
+            self.register_pass(scene, renderlayer, "Error", 1, "X", "VALUE")
 
     # -- final render -------------------------------------------------------------
 
@@ -178,7 +187,8 @@ class CoherentRenderEngine(bpy.types.RenderEngine):
             max_bounces=props.max_bounces, diffuse_bounces=props.diffuse_bounces,
             glossy_bounces=props.glossy_bounces, transmission_bounces=props.transmission_bounces,
             transparent=render.film_transparent, border=border, tile_size=props.tile_size,
-            progressive_display=False, **props.sampler_kwargs())
+            progressive_display=False, target_error=props.target_error, time_limit=props.time_limit,
+            **props.sampler_kwargs())
         build_seconds = time.perf_counter() - build_start
         self._renderer = renderer
 
@@ -198,9 +208,15 @@ class CoherentRenderEngine(bpy.types.RenderEngine):
 
         stats = renderer.stats()
         state = "finished" if finished else "cancelled"
-        print(f"Coherent: {state} {width}x{height}, {props.samples} spp, {nscene.triangle_count:,} triangles: "
+        print(f"Coherent: {state} {width}x{height}, {stats['spp']} spp, "
+              f"{nscene.triangle_count:,} triangles: "
               f"export {exported.seconds:.2f} s, BVH {build_seconds:.2f} s, render {stats['seconds']:.2f} s, "
               f"{stats['mrays_per_s']:.1f} Mrays/s")
+        # What the accuracy cost: the final estimate, time and samples.
+        summary = (f"Coherent: error {_format_error(stats['error_estimate'])} after {stats['spp']} samples "
+                   f"in {stats['seconds']:.2f} s")
+        print(summary)
+        self.report({"INFO"}, summary)
         if stats.get("nonfinite_samples"):
             self._warn(f"{stats['nonfinite_samples']} samples were NaN/Inf and discarded")
 
@@ -213,7 +229,9 @@ class CoherentRenderEngine(bpy.types.RenderEngine):
             fraction = p["fraction"]
             self.update_progress(fraction)
             remaining = seconds * (1.0 - fraction) / fraction if fraction > 0.0 else 0.0
-            self.update_stats("", f"Sample {done}/{total} | {p['mrays_per_s']:.1f} Mrays/s | "
+            error = p["error_estimate"]
+            error_text = f" | Error {_format_error(error)}" if error is not None else ""
+            self.update_stats("", f"Sample {done}/{total}{error_text} | {p['mrays_per_s']:.1f} Mrays/s | "
                                   f"Time {_format_time(seconds)} | Remaining {_format_time(remaining)}")
             # The film may only be read in the report that ends a pass (the
             # first one with a new samples_done): progress reports within a

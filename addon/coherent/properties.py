@@ -4,7 +4,7 @@
 from __future__ import annotations
 
 import bpy
-from bpy.props import BoolProperty, EnumProperty, IntProperty, IntVectorProperty, PointerProperty
+from bpy.props import BoolProperty, EnumProperty, FloatProperty, IntProperty, IntVectorProperty, PointerProperty
 
 
 class CoherentRenderSettings(bpy.types.PropertyGroup):
@@ -14,6 +14,22 @@ class CoherentRenderSettings(bpy.types.PropertyGroup):
     preview_samples: IntProperty(
         name="Viewport Samples", description="Samples per pixel for viewport renders",
         default=16, min=1, max=1 << 24, soft_max=1024)
+    # Stopping rules for final renders; whichever of Samples, Target Error
+    # and Time Limit comes first ends the render.
+    target_error: FloatProperty(
+        name="Target Error", description="Stop the final render once its estimated relative RMSE (from the "
+                                         "even and odd sample passes, no reference needed) is at most this; "
+                                         "0 = off",
+        default=0.0, min=0.0, max=10.0, soft_max=0.2, step=0.1, precision=3, subtype="FACTOR")
+    time_limit: FloatProperty(
+        name="Time Limit", description="Stop the final render after the sample pass that ends past this many "
+                                       "seconds; 0 = off",
+        default=0.0, min=0.0, soft_max=3600.0, unit="TIME_ABSOLUTE", subtype="TIME_ABSOLUTE")
+    use_pass_error: BoolProperty(
+        name="Error", description="Write an 'Error' pass: per pixel, the estimated RMS error of the rendered "
+                                  "radiance (from the even and odd sample passes)",
+        default=False)
+
     seed: IntProperty(
         name="Seed", description="Seed of the sample sequences; renders with equal seeds are identical",
         default=0, min=0)

@@ -40,6 +40,9 @@ class RENDER_PT_coherent_sampling(CoherentButtonsPanel, bpy.types.Panel):
         col = layout.column(align=True)
         col.prop(props, "samples", text="Render")
         col.prop(props, "preview_samples", text="Viewport")
+        col = layout.column(align=True)
+        col.prop(props, "target_error")
+        col.prop(props, "time_limit")
         col = layout.column()
         row = col.row(align=True)
         row.prop(props, "seed")
@@ -156,6 +159,7 @@ class VIEWLAYER_PT_coherent_passes(CoherentButtonsPanel, bpy.types.Panel):
         col.prop(view_layer, "use_pass_combined")
         col.prop(view_layer, "use_pass_z")
         col.prop(view_layer, "use_pass_normal")
+        col.prop(context.scene.coherent, "use_pass_error")
 
 
 classes = (

@@ -7,7 +7,15 @@ namespace coherent::cli {
 std::string render_report_json(const RenderReport& r) {
     nlohmann::ordered_json j;
     j["seconds"] = r.seconds;
-    j["spp"] = r.settings.spp;
+    j["spp"] = r.stats.spp;  // samples per pixel actually taken (stopping rules may end early)
+    j["spp_max"] = r.settings.spp;
+    // Estimated relative RMSE of the image; null with fewer than 2 passes.
+    if (r.stats.error_estimate >= 0.0)
+        j["error_estimate"] = r.stats.error_estimate;
+    else
+        j["error_estimate"] = nullptr;
+    j["target_error"] = r.settings.target_error;
+    j["time_limit"] = r.settings.time_limit;
     j["width"] = r.settings.width;
     j["height"] = r.settings.height;
 

@@ -23,7 +23,9 @@ struct RenderReport {
 };
 
 // One JSON object, one line:
-// {"seconds", "spp", "width", "height", "rays": {<type>: n, ..., "total": n},
+// {"seconds", "spp" (samples per pixel actually taken), "spp_max" (--spp),
+//  "error_estimate" (relative RMSE estimate or null), "target_error",
+//  "time_limit", "width", "height", "rays": {<type>: n, ..., "total": n},
 //  "mrays_per_s", "dropped": {...}, "nonfinite_samples", "features": [...],
 //  "output", plus "load_seconds", "build_seconds", "triangles", "seed", "threads", "max_bounces"}.
 std::string render_report_json(const RenderReport& report);

@@ -1,6 +1,7 @@
 #include "options.h"
 
 #include <charconv>
+#include <cmath>
 #include <cstring>
 #include <optional>
 #include <sstream>
@@ -27,6 +28,24 @@ bool parse_integer(const char* text, Int lo, Int hi, const char* option, Int& ou
     return true;
 }
 
+// Strict non-negative real parsing: the whole text must be a finite number
+// within [0, hi].
+bool parse_nonnegative_real(const char* text, double hi, const char* option, double& out, std::string& error) {
+    const char* end = text + std::strlen(text);
+    double value = 0.0;
+    const auto [ptr, ec] = std::from_chars(text, end, value);
+    if (ec != std::errc() || ptr != end || text == end || !std::isfinite(value)) {
+        error = std::string(option) + " expects a number, got '" + text + "'";
+        return false;
+    }
+    if (value < 0.0 || value > hi) {
+        error = std::string(option) + " must be between 0 and " + std::to_string(hi) + ", got '" + text + "'";
+        return false;
+    }
+    out = value;
+    return true;
+}
+
 // Upper limits keep a typo from asking for terabytes of film or years of work.
 constexpr int kMaxResolution = 1 << 14;
 constexpr int64_t kMaxPixels = int64_t(1) << 26;  // 8192 x 8192: ~3 GB of film
@@ -41,6 +60,12 @@ bool parse_output(RenderOptions& o, const char* v, std::string&) {
 }
 bool parse_spp(RenderOptions& o, const char* v, std::string& e) {
     return parse_integer(v, 1, kMaxSpp, "--spp", o.settings.spp, e);
+}
+bool parse_target_error(RenderOptions& o, const char* v, std::string& e) {
+    return parse_nonnegative_real(v, 1e6, "--target-error", o.settings.target_error, e);
+}
+bool parse_time_limit(RenderOptions& o, const char* v, std::string& e) {
+    return parse_nonnegative_real(v, 1e9, "--time-limit", o.settings.time_limit, e);
 }
 bool parse_seed(RenderOptions& o, const char* v, std::string& e) {
     return parse_integer<uint64_t>(v, 0, UINT64_MAX, "--seed", o.settings.seed, e);
@@ -127,6 +152,12 @@ const std::vector<OptionSpec>& render_option_table() {
              std::to_string(d.height) + ")",
          parse_res},
         {"--spp", nullptr, "N", "samples per pixel (default " + std::to_string(d.spp) + ")", parse_spp},
+        {"--target-error", nullptr, "E",
+         "stop once the estimated relative RMSE (from even/odd sample passes, no reference needed) is at most E, "
+         "e.g. 0.02; 0 = off (default 0)",
+         parse_target_error},
+        {"--time-limit", nullptr, "S",
+         "stop after the sample pass that ends past S seconds of rendering; 0 = off (default 0)", parse_time_limit},
         {"--seed", nullptr, "S", "random seed (default " + std::to_string(d.seed) + ")", parse_seed},
         {"--threads", nullptr, "T", "worker threads, 0 = all cores (default " + std::to_string(d.threads) + ")",
          parse_threads},

@@ -43,8 +43,10 @@ void ProgressBar::update(const Progress& p) {
     const double mrays = p.seconds > 0.0 ? rays / p.seconds * 1e-6 : 0.0;
     const double eta = fraction > 0.0 ? p.seconds * (1.0 - fraction) / fraction : NAN;
     // \r returns to the line start; \033[K clears what a longer line left.
-    std::fprintf(stderr, "\r[%s] %3d%%  %d/%d spp  %.1f Mrays/s  ETA %s\033[K", bar.c_str(), int(fraction * 100.0),
-                 p.samples_done, p.samples_total, mrays, format_duration(eta).c_str());
+    char error[32] = "";
+    if (p.error_estimate >= 0.0) std::snprintf(error, sizeof(error), "  error %.2f %%", 100.0 * p.error_estimate);
+    std::fprintf(stderr, "\r[%s] %3d%%  %d/%d spp%s  %.1f Mrays/s  ETA %s\033[K", bar.c_str(),
+                 int(fraction * 100.0), p.samples_done, p.samples_total, error, mrays, format_duration(eta).c_str());
     std::fflush(stderr);
 }
 

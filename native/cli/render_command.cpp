@@ -113,8 +113,10 @@ int render(const RenderOptions& options) {
         std::printf("%s\n", render_report_json(report).c_str());
     } else {
         const double mrays = render_seconds > 0.0 ? double(report.stats.total_rays()) / render_seconds * 1e-6 : 0.0;
-        std::printf("coherent: wrote %s (%dx%d, %d spp, %.3f s, %.2f Mrays/s)\n", options.output.c_str(),
-                    settings.width, settings.height, settings.spp, render_seconds, mrays);
+        std::printf("coherent: wrote %s (%dx%d, %d spp, %.3f s, %.2f Mrays/s", options.output.c_str(),
+                    settings.width, settings.height, report.stats.spp, render_seconds, mrays);
+        if (report.stats.error_estimate >= 0.0) std::printf(", error %.2f %%", 100.0 * report.stats.error_estimate);
+        std::printf(")\n");
     }
     std::fflush(stdout);
     return kExitOk;

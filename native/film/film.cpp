@@ -15,6 +15,7 @@ const PassInfo& pass_info(PassType t) {
         {PassType::Combined, "Combined", 4, "RGBA"},
         {PassType::Depth, "Depth", 1, "Z"},
         {PassType::Normal, "Normal", 3, "XYZ"},
+        {PassType::Error, "Error", 1, "X"},
     };
     return infos[size_t(t)];
 }
@@ -28,9 +29,12 @@ void Film::clear() {
     normal_.assign(3 * n, 0.0f);
     count_.assign(n, 0);
     hits_.assign(n, 0);
+    rgb_odd_.assign(3 * n, 0.0f);
+    count_odd_.assign(n, 0);
 }
 
-void Film::add_sample(int x, int y, const Vec3f& radiance, float alpha, float depth, const Vec3f& normal) {
+void Film::add_sample(int x, int y, const Vec3f& radiance, float alpha, float depth, const Vec3f& normal,
+                      uint32_t sample) {
     const size_t i = size_t(y) * size_t(width_) + size_t(x);
     rgba_[4 * i + 0] += radiance.x;
     rgba_[4 * i + 1] += radiance.y;
@@ -45,6 +49,58 @@ void Film::add_sample(int x, int y, const Vec3f& radiance, float alpha, float de
     normal_[3 * i + 1] += normal.y;
     normal_[3 * i + 2] += normal.z;
     ++count_[i];
+    if (sample & 1u) {
+        rgb_odd_[3 * i + 0] += radiance.x;
+        rgb_odd_[3 * i + 1] += radiance.y;
+        rgb_odd_[3 * i + 2] += radiance.z;
+        ++count_odd_[i];
+    }
+}
+
+namespace {
+
+// Squared error estimate d^2 summed over R, G, B for pixel i (see film.h);
+// false when the pixel lacks an even or an odd sample.
+bool pixel_error_sq(const float* sum, const float* sum_odd, uint32_t n, uint32_t n_odd, double& out) {
+    const uint32_t n_even = n - n_odd;
+    out = 0.0;
+    if (n_odd == 0 || n_even == 0) return false;
+    const double scale = double(n_even) * double(n_odd) / (double(n) * double(n));
+    for (int c = 0; c < 3; ++c) {
+        const double even_mean = (double(sum[c]) - double(sum_odd[c])) / double(n_even);
+        const double odd_mean = double(sum_odd[c]) / double(n_odd);
+        const double diff = even_mean - odd_mean;
+        out += diff * diff * scale;
+    }
+    return true;
+}
+
+}  // namespace
+
+float Film::pixel_error(int x, int y) const {
+    const size_t i = size_t(y) * size_t(width_) + size_t(x);
+    double e2 = 0.0;
+    pixel_error_sq(&rgba_[4 * i], &rgb_odd_[3 * i], count_[i], count_odd_[i], e2);
+    const float e = float(std::sqrt(e2 / 3.0));
+    return std::isfinite(e) ? e : 0.0f;
+}
+
+double Film::relative_rmse_estimate() const {
+    const size_t n = size_t(width_) * size_t(height_);
+    if (n == 0) return -1.0;
+    double err2 = 0.0, mean = 0.0;
+    for (size_t i = 0; i < n; ++i) {
+        double e2 = 0.0;
+        if (!pixel_error_sq(&rgba_[4 * i], &rgb_odd_[3 * i], count_[i], count_odd_[i], e2)) return -1.0;
+        err2 += e2;
+        const double inv = 1.0 / double(count_[i]);
+        mean += (double(rgba_[4 * i]) + double(rgba_[4 * i + 1]) + double(rgba_[4 * i + 2])) * inv;
+    }
+    err2 /= double(3 * n);
+    mean /= double(3 * n);
+    if (!(mean > 0.0)) return 0.0;  // all black: every sample was 0 (radiance is non-negative)
+    const double r = std::sqrt(err2) / mean;
+    return std::isfinite(r) ? r : -1.0;
 }
 
 void Film::resolve_into(PassType t, float* out) const {
@@ -60,6 +116,9 @@ void Film::resolve_into(PassType t, float* out) const {
                 break;
             case PassType::Normal:
                 for (int c = 0; c < 3; ++c) out[3 * i + c] = normal_[3 * i + c] * inv;
+                break;
+            case PassType::Error:
+                out[i] = pixel_error(int(i % size_t(width_)), int(i / size_t(width_)));
                 break;
         }
     }

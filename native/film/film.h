@@ -11,7 +11,7 @@
 
 namespace coherent {
 
-enum class PassType : uint8_t { Combined, Depth, Normal };
+enum class PassType : uint8_t { Combined, Depth, Normal, Error };
 
 struct PassInfo {
     PassType type;
@@ -32,11 +32,39 @@ public:
 
     // Adds one sample's values to pixel (x, y). The caller guarantees finite
     // values (the renderer guards and counts before calling).
-    void add_sample(int x, int y, const Vec3f& radiance, float alpha, float depth, const Vec3f& normal);
+    // `sample` is the sample (pass) index: odd passes also go to the odd
+    // half-buffer behind the error estimate below.
+    void add_sample(int x, int y, const Vec3f& radiance, float alpha, float depth, const Vec3f& normal,
+                    uint32_t sample = 0);
+
+    // Running error estimate without a reference, from two half-buffers: the
+    // even and the odd sample passes. Why by pass: every pass draws its
+    // random numbers from sequences independent of every other pass, while
+    // within a pass CPT/ICPT correlate the samples of a packet. Splitting by
+    // sample index therefore gives two independent groups (per-sample-index
+    // batches), so the estimate stays honest for correlated samplers, which
+    // a split by pixel or by neighbourhood would not be.
+    //
+    // Per pixel and channel, with E, O the means of the n_e even and n_o odd
+    // samples and n = n_e + n_o, the full mean is (n_e E + n_o O) / n and
+    //   Var[E - O] = s^2 (1/n_e + 1/n_o) = s^2 n / (n_e n_o),
+    //   Var[mean]  = s^2 / n  =  Var[E - O] * n_e n_o / n^2,
+    // so d = (E - O) sqrt(n_e n_o) / n is an unbiased-in-square estimate of
+    // the error of the full mean ((E - O) / 2 for n_e = n_o).
+    // pixel_error(x, y): sqrt of the mean over R, G, B of d^2 (absolute
+    // radiance units; 0 until a pixel has both an even and an odd sample).
+    float pixel_error(int x, int y) const;
+    // Image relative RMSE estimate: sqrt(mean over pixels and RGB of d^2)
+    // divided by the mean over pixels and RGB of the image. The normalisation
+    // by the image mean (not per pixel) keeps dark pixels from dominating and
+    // needs no epsilon; it matches the bench's relative RMSE. Returns a
+    // negative value when no estimate exists yet (some pixel lacks an even or
+    // odd sample, i.e. fewer than 2 passes), and 0 for an all-black image.
+    double relative_rmse_estimate() const;
 
     // Resolved pass as interleaved floats, width*height*channels, top row first.
     // Depth/Normal are from the first hit averaged over samples; Depth is inf
-    // where nothing was hit (as Cycles writes 1e10).
+    // where nothing was hit (as Cycles writes 1e10). Error is pixel_error().
     std::vector<float> resolve(PassType t) const;
     void resolve_into(PassType t, float* out) const;  // out has width*height*channels floats
     uint32_t samples_at(int x, int y) const { return count_[size_t(y) * width_ + x]; }
@@ -50,6 +78,8 @@ private:
     std::vector<float> normal_;   // 3 per pixel, sums
     std::vector<uint32_t> count_; // samples per pixel
     std::vector<uint32_t> hits_;  // samples that hit geometry
+    std::vector<float> rgb_odd_;  // 3 per pixel, sums over odd passes only
+    std::vector<uint32_t> count_odd_;  // odd-pass samples per pixel
 };
 
 }  // namespace coherent

@@ -25,11 +25,15 @@ namespace {
 constexpr float kBlenderNoDepth = 1e10f;
 
 PassType pass_from_name(const std::string& name) {
-    for (PassType t : {PassType::Combined, PassType::Depth, PassType::Normal})
+    for (PassType t : {PassType::Combined, PassType::Depth, PassType::Normal, PassType::Error})
         if (name == pass_info(t).name) return t;
     if (name == "Z") return PassType::Depth;  // Blender < 2.92 name of the depth pass
-    throw py::value_error("pass_pixels: unknown pass '" + name + "' (expected 'Combined', 'Depth' or 'Normal')");
+    throw py::value_error("pass_pixels: unknown pass '" + name +
+                          "' (expected 'Combined', 'Depth', 'Normal' or 'Error')");
 }
+
+// The relative RMSE estimate, None while unknown (fewer than 2 passes).
+py::object error_estimate_object(double e) { return e >= 0.0 ? py::object(py::float_(e)) : py::object(py::none()); }
 
 class PyRenderer {
 public:
@@ -236,6 +240,7 @@ private:
         d["samples_total"] = p.samples_total;
         d["fraction"] = p.fraction;
         d["seconds"] = p.seconds;
+        d["error_estimate"] = error_estimate_object(p.error_estimate);
         const uint64_t rays = p.stats ? p.stats->total_rays() : 0;
         d["rays"] = rays;
         d["mrays_per_s"] = p.seconds > 0.0 ? double(rays) / p.seconds * 1e-6 : 0.0;
@@ -249,6 +254,8 @@ private:
         d["rays"] = rays;
         d["total_rays"] = s.total_rays();
         d["samples"] = s.samples;
+        d["spp"] = s.spp;  // sample passes actually taken (stopping rules may end early)
+        d["error_estimate"] = error_estimate_object(s.error_estimate);
         d["seconds"] = s.seconds;
         d["mrays_per_s"] = s.seconds > 0.0 ? double(s.total_rays()) / s.seconds * 1e-6 : 0.0;
         d["nonfinite_samples"] = s.nonfinite_samples;
@@ -298,7 +305,7 @@ std::unique_ptr<PyRenderer> make_renderer(std::shared_ptr<PyScene> scene, int wi
                                           int rr_min_bounces, bool transparent, const py::object& border,
                                           int tile_size, bool force_all_features, const std::string& sampler,
                                           const py::object& packet, bool progressive_display,
-                                          const std::string& sequences) {
+                                          const std::string& sequences, double target_error, double time_limit) {
     if (!scene) throw py::type_error("scene: expected a coherent Scene, got None");
     constexpr int kMaxSize = 1 << 16;
     RenderSettings s;
@@ -306,6 +313,12 @@ std::unique_ptr<PyRenderer> make_renderer(std::shared_ptr<PyScene> scene, int wi
     s.height = checked_int(height, 1, kMaxSize, "height");
     s.spp = checked_int(spp, 1, 1 << 24, "spp");
     s.seed = seed;
+    if (!(target_error >= 0.0 && std::isfinite(target_error)))
+        throw py::value_error("target_error: expected a finite number >= 0 (0 = off)");
+    if (!(time_limit >= 0.0 && std::isfinite(time_limit)))
+        throw py::value_error("time_limit: expected a finite number of seconds >= 0 (0 = off)");
+    s.target_error = target_error;
+    s.time_limit = time_limit;
     s.threads = checked_int(threads, 0, 4096, "threads");
     s.max_bounces = checked_int(max_bounces, 0, 1024, "max_bounces");
     s.diffuse_bounces = checked_int(diffuse_bounces, 0, 1024, "diffuse_bounces");
@@ -357,6 +370,13 @@ below 256 spp, else CPT. packet=(w, h): packet size in pixels (ICPT blocks
 are square, of the shorter side), at most 16. sequences="packet" | "image":
 CPT/ICPT share sequences per packet (the paper's Fig. 3) or over the whole
 image (its equation 3).
+
+Stopping rules (0 = off; whichever of spp, target_error and time_limit comes
+first ends the render): target_error is a relative RMSE, estimated without a
+reference from the even and odd sample passes and checked after every even
+pass count; time_limit is in seconds, checked between passes. stats()["spp"]
+says how many passes were taken; stats() and the progress dict carry
+error_estimate (None before 2 passes).
 )doc")
         .def(py::init(&make_renderer), py::arg("scene"), py::kw_only(), py::arg("width") = 512,
              py::arg("height") = 512, py::arg("spp") = 16, py::arg("seed") = 0, py::arg("threads") = 0,
@@ -364,11 +384,13 @@ image (its equation 3).
              py::arg("transmission_bounces") = 12, py::arg("rr_min_bounces") = 3, py::arg("transparent") = false,
              py::arg("border") = py::none(), py::arg("tile_size") = 32, py::arg("force_all_features") = false,
              py::arg("sampler") = "spt", py::arg("packet") = py::make_tuple(4, 4),
-             py::arg("progressive_display") = false, py::arg("sequences") = "packet")
+             py::arg("progressive_display") = false, py::arg("sequences") = "packet", py::arg("target_error") = 0.0,
+             py::arg("time_limit") = 0.0)
         .def("render", &PyRenderer::render, py::arg("progress") = py::none(), R"doc(
 Renders all samples; returns False if cancelled. `progress(dict)` is called
 after every sample pass (and periodically within long passes) with keys
-samples_done, samples_total, fraction, seconds, rays, mrays_per_s; a falsy
+samples_done, samples_total, fraction, seconds, error_estimate, rays,
+mrays_per_s; a falsy
 return value cancels. An exception raised by the callback cancels the render
 and is re-raised when render() returns.)doc")
         .def("start", &PyRenderer::start, R"doc(
@@ -387,7 +409,8 @@ before the first pass completes.)doc")
         .def("pass_pixels", &PyRenderer::pass_pixels, py::arg("name"), py::arg("flip_y") = true, R"doc(
 The resolved pass as a new float32 array of shape (film_height*film_width,
 channels): 'Combined' (RGBA), 'Depth' (1; 1e10 where nothing was hit) or
-'Normal' (XYZ). flip_y=True orders rows bottom-up as Blender expects.)doc")
+'Normal' (XYZ) or 'Error' (1; per-pixel estimated RMS error of the mean
+radiance, from even/odd sample passes, 0 before 2 passes). flip_y=True orders rows bottom-up as Blender expects.)doc")
         .def("stats", &PyRenderer::stats, "Render statistics: rays per type, traversal counters, time.")
         .def("bvh_stats", &PyRenderer::bvh_stats, "BVH build statistics.")
         .def_property_readonly("bvh_reused", &PyRenderer::bvh_reused,

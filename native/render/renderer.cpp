@@ -48,7 +48,8 @@ void render_tile(const TileJob& job, RenderStats& st) {
                 ++st.nonfinite_samples;
                 continue;
             }
-            job.film->add_sample(x - job.border_x0, y - job.border_y0, o.radiance, o.alpha, o.depth, o.normal);
+            job.film->add_sample(x - job.border_x0, y - job.border_y0, o.radiance, o.alpha, o.depth, o.normal,
+                                 job.sample);
             ++st.samples;
         }
     }
@@ -133,11 +134,14 @@ bool Renderer::render(const ProgressCallback& progress) {
         p.samples_total = spp;
         p.fraction = fraction;
         p.seconds = stats_.seconds;
+        p.error_estimate = stats_.error_estimate;
         p.stats = &stats_;
         if (!progress(p)) cancel();
         last_report = Clock::now();
     };
 
+    stats_.spp = 0;
+    stats_.error_estimate = -1.0;
     for (int pass = 0; pass < spp && !cancelled() && tiles > 0; ++pass) {
         const ImageSampler sampler(sampler_config, uint32_t(pass), 1);
         tbb::enumerable_thread_specific<RenderStats> local;
@@ -170,7 +174,19 @@ bool Renderer::render(const ProgressCallback& progress) {
         });
         for (const RenderStats& s : local) stats_ += s;
         if (cancelled()) break;
-        report(pass + 1, double(pass + 1) / spp);
+        const int passes_done = pass + 1;
+        stats_.spp = passes_done;
+        // O(pixels), negligible next to a pass of path tracing.
+        if (passes_done >= 2) stats_.error_estimate = film_.relative_rmse_estimate();
+        report(passes_done, double(passes_done) / spp);
+        // Stopping rules. The error target is checked only after an even
+        // number of passes, where both halves hold equally many samples.
+        if (settings_.target_error > 0.0 && passes_done >= 2 && passes_done % 2 == 0 &&
+            stats_.error_estimate >= 0.0 && stats_.error_estimate <= settings_.target_error)
+            break;
+        // stats_.seconds was set by report() above: the decision uses exactly
+        // the time the progress callback was shown.
+        if (settings_.time_limit > 0.0 && stats_.seconds >= settings_.time_limit) break;
     }
     stats_.seconds = seconds_since_start();
     return !cancelled();

@@ -22,6 +22,7 @@ struct Progress {
     int samples_total = 0;
     double fraction = 0.0;  // [0,1] of the whole render
     double seconds = 0.0;
+    double error_estimate = -1.0;  // relative RMSE estimate; negative while unknown
     const RenderStats* stats = nullptr;
 };
 using ProgressCallback = std::function<bool(const Progress&)>;
@@ -39,7 +40,9 @@ public:
     ~Renderer();
 
     // Renders settings.spp samples per pixel, pass by pass (sample 0 over the
-    // whole film, then sample 1, ...). Returns false if cancelled. Thread-safe
+    // whole film, then sample 1, ...), stopping early at settings.target_error
+    // or settings.time_limit (see settings.h); stats().spp says how many
+    // passes were taken. Returns false if cancelled. Thread-safe
     // with respect to cancel() only.
     bool render(const ProgressCallback& progress = {});
     void cancel() { cancelled_.store(true, std::memory_order_relaxed); }

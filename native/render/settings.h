@@ -14,6 +14,14 @@ struct RenderSettings {
     int border_x0 = 0, border_y0 = 0, border_x1 = -1, border_y1 = -1;
 
     int spp = 16;
+    // Stopping rules besides spp; whichever comes first ends the render.
+    // target_error: stop once Film::relative_rmse_estimate() (the even/odd
+    // half-buffer estimate of the image's relative RMSE) is <= this, checked
+    // after every even number of passes from 2 on. 0 = off.
+    double target_error = 0.0;
+    // time_limit: seconds of wall-clock time; checked between passes, so a
+    // render may overrun it by at most the pass in flight. 0 = off.
+    double time_limit = 0.0;
     uint64_t seed = 0;
     int threads = 0;                    // 0 = all cores
 

@@ -17,6 +17,10 @@ struct RenderStats {
     TraversalCounters traversal;
     uint64_t nonfinite_samples = 0;  // samples whose value was NaN/Inf, discarded
     uint64_t samples = 0;            // pixel samples finished
+    int spp = 0;                     // sample passes actually completed (samples per pixel taken)
+    // Film::relative_rmse_estimate() after the last completed pass; negative
+    // while unknown (fewer than 2 passes).
+    double error_estimate = -1.0;
     double seconds = 0.0;
 
     uint64_t total_rays() const {

@@ -354,3 +354,52 @@ def test_sigint_cancels_without_writing(cli, tmp_path):
     assert stdout == ""
     assert one_line(stderr), stderr
     assert not out.exists()
+
+
+# --- stopping rules and the error estimate -----------------------------------
+
+def test_target_error_stops_early_and_json_reports_spp_taken(cli, tmp_path):
+    out = tmp_path / "target.exr"
+    r = run(cli, "render", CORNELL, "-o", out, "--res", 24, 24, "--spp", 100000, "--target-error", "0.15",
+            "--json")
+    assert r.returncode == 0, r.stderr
+    stats = json.loads(r.stdout)
+    assert stats["spp_max"] == 100000
+    assert stats["target_error"] == pytest.approx(0.15)
+    # Stopped at an even pass count, well before the maximum, at or below the target.
+    assert 2 <= stats["spp"] < 100000
+    assert stats["spp"] % 2 == 0
+    assert 0.0 < stats["error_estimate"] <= 0.15
+    # spp counts samples actually taken: one camera ray per pixel per pass.
+    assert stats["rays"]["camera"] == 24 * 24 * stats["spp"]
+    assert out.exists()
+
+    # Without a stopping rule every requested sample is taken and the estimate is reported.
+    r = run(cli, "render", CORNELL, "-o", tmp_path / "full.exr", "--res", 8, 8, "--spp", 6, "--json")
+    assert r.returncode == 0, r.stderr
+    stats = json.loads(r.stdout)
+    assert stats["spp"] == 6 and stats["spp_max"] == 6
+    assert stats["error_estimate"] > 0.0
+    # One pass has no odd half: no estimate yet.
+    r = run(cli, "render", CORNELL, "-o", tmp_path / "one.exr", "--res", 8, 8, "--spp", 1, "--json")
+    assert json.loads(r.stdout)["error_estimate"] is None
+
+
+def test_time_limit_stops_early(cli, tmp_path):
+    r = run(cli, "render", CORNELL, "-o", tmp_path / "t.png", "--res", 16, 16, "--spp", 1000000,
+            "--time-limit", "0.5", "--json")
+    assert r.returncode == 0, r.stderr
+    stats = json.loads(r.stdout)
+    assert 1 <= stats["spp"] < 1000000
+    assert stats["time_limit"] == pytest.approx(0.5)
+
+
+@pytest.mark.parametrize("option,value", [("--target-error", "-0.1"), ("--target-error", "abc"),
+                                          ("--time-limit", "-1"), ("--time-limit", "inf"),
+                                          ("--time-limit", "nan"), ("--target-error", "")])
+def test_stopping_rule_options_reject_bad_values(cli, tmp_path, option, value):
+    out = tmp_path / "x.png"
+    r = run(cli, "render", CORNELL, "-o", out, "--res", 8, 8, "--spp", 1, option, value)
+    assert r.returncode == 2, r.stderr
+    assert one_line(r.stderr) and option in r.stderr
+    assert not out.exists()
