@@ -85,6 +85,12 @@ float Film::pixel_error(int x, int y) const {
     return std::isfinite(e) ? e : 0.0f;
 }
 
+double Film::pixel_mean(int x, int y) const {
+    const size_t i = size_t(y) * size_t(width_) + size_t(x);
+    if (count_[i] == 0) return 0.0;
+    return (double(rgba_[4 * i]) + double(rgba_[4 * i + 1]) + double(rgba_[4 * i + 2])) / (3.0 * double(count_[i]));
+}
+
 double Film::relative_rmse_estimate() const {
     const size_t n = size_t(width_) * size_t(height_);
     if (n == 0) return -1.0;

@@ -54,6 +54,9 @@ public:
     // pixel_error(x, y): sqrt of the mean over R, G, B of d^2 (absolute
     // radiance units; 0 until a pixel has both an even and an odd sample).
     float pixel_error(int x, int y) const;
+    // Mean over R, G, B of pixel (x, y)'s radiance mean (0 without samples):
+    // the scale adaptive sampling judges pixel_error() against.
+    double pixel_mean(int x, int y) const;
     // Image relative RMSE estimate: sqrt(mean over pixels and RGB of d^2)
     // divided by the mean over pixels and RGB of the image. The normalisation
     // by the image mean (not per pixel) keeps dark pixels from dominating and

@@ -255,6 +255,8 @@ private:
         d["total_rays"] = s.total_rays();
         d["samples"] = s.samples;
         d["spp"] = s.spp;  // sample passes actually taken (stopping rules may end early)
+        d["converged_pixels"] = s.converged_pixels;
+        d["converged_fraction"] = s.converged_fraction();
         d["error_estimate"] = error_estimate_object(s.error_estimate);
         d["seconds"] = s.seconds;
         d["mrays_per_s"] = s.seconds > 0.0 ? double(s.total_rays()) / s.seconds * 1e-6 : 0.0;
@@ -305,7 +307,8 @@ std::unique_ptr<PyRenderer> make_renderer(std::shared_ptr<PyScene> scene, int wi
                                           int rr_min_bounces, bool transparent, const py::object& border,
                                           int tile_size, bool force_all_features, const std::string& sampler,
                                           const py::object& packet, bool progressive_display,
-                                          const std::string& sequences, double target_error, double time_limit) {
+                                          const std::string& sequences, double target_error, double time_limit,
+                                          bool adaptive, double adaptive_threshold, int adaptive_min_samples) {
     if (!scene) throw py::type_error("scene: expected a coherent Scene, got None");
     constexpr int kMaxSize = 1 << 16;
     RenderSettings s;
@@ -319,6 +322,11 @@ std::unique_ptr<PyRenderer> make_renderer(std::shared_ptr<PyScene> scene, int wi
         throw py::value_error("time_limit: expected a finite number of seconds >= 0 (0 = off)");
     s.target_error = target_error;
     s.time_limit = time_limit;
+    if (!(adaptive_threshold > 0.0 && adaptive_threshold <= 1.0))
+        throw py::value_error("adaptive_threshold: expected a relative error in (0, 1]");
+    s.adaptive = adaptive;
+    s.adaptive_threshold = adaptive_threshold;
+    s.adaptive_min_samples = checked_int(adaptive_min_samples, 2, 1 << 24, "adaptive_min_samples");
     s.threads = checked_int(threads, 0, 4096, "threads");
     s.max_bounces = checked_int(max_bounces, 0, 1024, "max_bounces");
     s.diffuse_bounces = checked_int(diffuse_bounces, 0, 1024, "diffuse_bounces");
@@ -377,6 +385,11 @@ reference from the even and odd sample passes and checked after every even
 pass count; time_limit is in seconds, checked between passes. stats()["spp"]
 says how many passes were taken; stats() and the progress dict carry
 error_estimate (None before 2 passes).
+
+adaptive=True: after adaptive_min_samples passes (rounded up to even), at
+every even pass count, a pixel whose estimated relative error and whose 3x3
+neighbours' are at most adaptive_threshold stops taking samples; stats()
+carries converged_pixels and converged_fraction.
 )doc")
         .def(py::init(&make_renderer), py::arg("scene"), py::kw_only(), py::arg("width") = 512,
              py::arg("height") = 512, py::arg("spp") = 16, py::arg("seed") = 0, py::arg("threads") = 0,
@@ -385,7 +398,8 @@ error_estimate (None before 2 passes).
              py::arg("border") = py::none(), py::arg("tile_size") = 32, py::arg("force_all_features") = false,
              py::arg("sampler") = "spt", py::arg("packet") = py::make_tuple(4, 4),
              py::arg("progressive_display") = false, py::arg("sequences") = "packet", py::arg("target_error") = 0.0,
-             py::arg("time_limit") = 0.0)
+             py::arg("time_limit") = 0.0, py::arg("adaptive") = false, py::arg("adaptive_threshold") = 0.01,
+             py::arg("adaptive_min_samples") = 16)
         .def("render", &PyRenderer::render, py::arg("progress") = py::none(), R"doc(
 Renders all samples; returns False if cancelled. `progress(dict)` is called
 after every sample pass (and periodically within long passes) with keys

@@ -33,6 +33,8 @@ struct TileJob {
     int border_x0, border_y0;
     uint32_t sample;
     const std::atomic<bool>* cancelled;
+    const uint8_t* converged;  // per film pixel, row stride film width; null = none skipped
+    int film_width;
 };
 
 // Renders one sample for every pixel of one tile; returns early on cancel.
@@ -41,6 +43,10 @@ void render_tile(const TileJob& job, RenderStats& st) {
     for (int y = job.y0; y < job.y1; ++y) {
         if (job.cancelled->load(std::memory_order_relaxed)) return;
         for (int x = job.x0; x < job.x1; ++x) {
+            // Adaptive sampling: a converged pixel keeps its mean and takes no more samples.
+            if (job.converged &&
+                job.converged[size_t(y - job.border_y0) * size_t(job.film_width) + size_t(x - job.border_x0)])
+                continue;
             const PathSampler<ImageSampler> ps(*job.sampler, uint32_t(x), uint32_t(y), job.sample);
             const PathOutput o = trace_path<ImageSampler, kGlass, kDepthOfField, kLights>(*job.ctx, ps, x, y, st);
             // No NaN/Inf ever reaches the film: discard the whole sample and count it.
@@ -142,6 +148,12 @@ bool Renderer::render(const ProgressCallback& progress) {
 
     stats_.spp = 0;
     stats_.error_estimate = -1.0;
+    stats_.pixels = uint64_t(bw) * uint64_t(bh);
+    stats_.converged_pixels = 0;
+    converged_.clear();
+    if (settings_.adaptive) converged_.assign(size_t(bw) * size_t(bh), 0);
+    // Even, so that both half-buffers hold equally many samples when first judged.
+    const int adaptive_min = std::max(2, settings_.adaptive_min_samples + (settings_.adaptive_min_samples & 1));
     for (int pass = 0; pass < spp && !cancelled() && tiles > 0; ++pass) {
         const ImageSampler sampler(sampler_config, uint32_t(pass), 1);
         tbb::enumerable_thread_specific<RenderStats> local;
@@ -163,6 +175,8 @@ bool Renderer::render(const ProgressCallback& progress) {
                     job.border_y0 = settings_.border_y0;
                     job.sample = uint32_t(pass);
                     job.cancelled = &cancelled_;
+                    job.converged = converged_.empty() ? nullptr : converged_.data();
+                    job.film_width = bw;
                     kernel(job, st);
                     const int done = tiles_done.fetch_add(1, std::memory_order_relaxed) + 1;
                     // Periodic progress within a long pass, always on the calling
@@ -179,6 +193,12 @@ bool Renderer::render(const ProgressCallback& progress) {
         // O(pixels), negligible next to a pass of path tracing.
         if (passes_done >= 2) stats_.error_estimate = film_.relative_rmse_estimate();
         report(passes_done, double(passes_done) / spp);
+        // Adaptive sampling decides only at even pass counts, where every
+        // unconverged pixel holds as many even as odd samples.
+        if (settings_.adaptive && passes_done >= adaptive_min && passes_done % 2 == 0 && passes_done < spp) {
+            stats_.converged_pixels = update_convergence();
+            if (stats_.converged_pixels == stats_.pixels) break;  // nothing left to sample
+        }
         // Stopping rules. The error target is checked only after an even
         // number of passes, where both halves hold equally many samples.
         if (settings_.target_error > 0.0 && passes_done >= 2 && passes_done % 2 == 0 &&
@@ -190,6 +210,45 @@ bool Renderer::render(const ProgressCallback& progress) {
     }
     stats_.seconds = seconds_since_start();
     return !cancelled();
+}
+
+uint64_t Renderer::update_convergence() {
+    const int w = film_.width(), h = film_.height();
+    const double threshold = settings_.adaptive_threshold;
+    // Pass 1: which pixels meet the threshold on their own. O(pixels) per
+    // even pass, negligible next to path tracing.
+    std::vector<uint8_t> meets(size_t(w) * size_t(h), 0);
+    for (int y = 0; y < h; ++y)
+        for (int x = 0; x < w; ++x) {
+            const size_t i = size_t(y) * size_t(w) + size_t(x);
+            if (converged_[i]) {  // stopped pixels still count as meeting it
+                meets[i] = 1;
+                continue;
+            }
+            const uint32_t n = film_.samples_at(x, y);
+            if (n < 2) continue;  // no error estimate (e.g. all samples non-finite)
+            const double mean = film_.pixel_mean(x, y);
+            const double rel = double(film_.pixel_error(x, y)) / std::max(mean, RenderSettings::kAdaptiveLuminanceFloor);
+            meets[i] = rel <= threshold ? 1 : 0;
+        }
+    // Pass 2: a pixel converges when its whole 3x3 neighbourhood meets it.
+    uint64_t converged = 0;
+    for (int y = 0; y < h; ++y)
+        for (int x = 0; x < w; ++x) {
+            const size_t i = size_t(y) * size_t(w) + size_t(x);
+            if (!converged_[i]) {
+                bool all = true;
+                for (int dy = -1; dy <= 1 && all; ++dy)
+                    for (int dx = -1; dx <= 1 && all; ++dx) {
+                        const int nx = x + dx, ny = y + dy;
+                        if (nx < 0 || ny < 0 || nx >= w || ny >= h) continue;
+                        all = meets[size_t(ny) * size_t(w) + size_t(nx)] != 0;
+                    }
+                converged_[i] = all ? 1 : 0;
+            }
+            converged += converged_[i];
+        }
+    return converged;
 }
 
 }  // namespace coherent

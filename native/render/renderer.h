@@ -5,6 +5,7 @@
 #include <atomic>
 #include <functional>
 #include <memory>
+#include <vector>
 
 #include "../accel/bvh.h"
 #include "../film/film.h"
@@ -49,6 +50,10 @@ public:
     bool cancelled() const { return cancelled_.load(std::memory_order_relaxed); }
 
     const Film& film() const { return film_; }
+    // Adaptive sampling: whether film pixel (x, y) stopped receiving samples.
+    bool pixel_converged(int x, int y) const {
+        return !converged_.empty() && converged_[size_t(y) * size_t(film_.width()) + size_t(x)] != 0;
+    }
     const RenderStats& stats() const { return stats_; }
     const SceneFeatures& active_features() const { return features_; }
     const Bvh& bvh() const { return *bvh_; }
@@ -62,6 +67,11 @@ private:
     std::shared_ptr<const Bvh> bvh_;  // never null after construction
     Film film_;
     RenderStats stats_;
+    // Adaptive sampling: 1 per converged film pixel; empty when off.
+    // Invariant: once set, a flag is never cleared within a render.
+    std::vector<uint8_t> converged_;
+    // Marks pixels converged by the rule in settings.h; returns how many are now.
+    uint64_t update_convergence();
     std::atomic<bool> cancelled_{false};
 };
 

@@ -25,6 +25,24 @@ struct RenderSettings {
     uint64_t seed = 0;
     int threads = 0;                    // 0 = all cores
 
+    // Adaptive sampling (off by default). After every even pass count
+    // >= adaptive_min_samples, a pixel stops receiving samples once its
+    // relative error, Film::pixel_error() / max(mean of its RGB,
+    // kAdaptiveLuminanceFloor), is <= adaptive_threshold for it AND for every
+    // pixel of its 3x3 neighbourhood (within the border). Converged pixels
+    // keep their samples (the film normalises each pixel by its own count)
+    // and never resume. Decisions only at even pass counts keep the even and
+    // odd halves balanced; the neighbourhood rule keeps a pixel from stopping
+    // on a lucky run of its own samples. Not exactly unbiased (no stopping
+    // rule on the samples themselves is), measured in tests/native/test_adaptive.cpp.
+    bool adaptive = false;
+    double adaptive_threshold = 0.01;
+    int adaptive_min_samples = 16;      // rounded up to an even number, at least 2
+    // Radiance below which the relative error is taken relative to this
+    // floor instead: near-black pixels must reach a small absolute error
+    // rather than an ever smaller relative one.
+    static constexpr double kAdaptiveLuminanceFloor = 0.01;
+
     // Blender's Light Paths > Max Bounces.
     int max_bounces = 12;
     int diffuse_bounces = 4;

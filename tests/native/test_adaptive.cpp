@@ -1,0 +1,198 @@
+// Adaptive sampling (RenderSettings::adaptive): pixels whose even/odd error
+// estimate meets the threshold over their 3x3 neighbourhood stop early.
+// The properties tested: it really stops a good share of pixels and traces
+// fewer camera rays; converged pixels keep exactly the samples they had; and
+// the image stays unbiased: over many seeds, the adaptive render's image
+// mean (and a few pixels) agrees with the full render's within 4 standard
+// errors of the paired differences.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+#include <vector>
+
+#include "test_render_helpers.h"
+
+namespace coherent {
+namespace {
+
+using test::add_quad;
+using test::add_sphere;
+using test::diffuse_material;
+using test::emission_material;
+
+constexpr int kRes = 16;
+constexpr int kSpp = 64;
+
+// A diffuse sphere on a floor under a small area light: smooth lit floor
+// (converges early) next to soft shadows and the sphere's rim (do not).
+Scene sphere_scene() {
+    Scene s;
+    const uint32_t white = s.add_material(diffuse_material(Vec3f(0.7f)));
+    const uint32_t red = s.add_material(diffuse_material(Vec3f(0.8f, 0.2f, 0.1f)));
+    const uint32_t light = s.add_material(emission_material(Vec3f(4.0f)));
+    add_quad(s, {0, 0, 0}, {1, 0, 0}, {0, 1, 0}, 6.0f, 6.0f, white, "floor");
+    add_sphere(s, {0, 0, 1}, 1.0f, red, 16, 32);
+    add_quad(s, {1, 1, 4}, {0, 1, 0}, {1, 0, 0}, 2.5f, 2.5f, light, "light");  // faces -z
+    Camera c;
+    c.position = {0.0f, -6.0f, 3.0f};
+    c.forward = normalize(Vec3f(0.0f, 6.0f, -2.5f));
+    c.right = {1.0f, 0.0f, 0.0f};
+    c.up = normalize(cross(c.right, c.forward));
+    c.half_width = c.half_height = 0.6f;
+    s.camera = c;
+    s.world_color = Vec3f(0.2f);
+    s.finalize();
+    return s;
+}
+
+RenderSettings settings(bool adaptive, uint64_t seed) {
+    RenderSettings rs;
+    rs.width = rs.height = kRes;
+    rs.spp = kSpp;
+    rs.seed = seed;
+    rs.sampler = SamplerType::Spt;
+    rs.max_bounces = 4;
+    rs.adaptive = adaptive;
+    rs.adaptive_threshold = 0.1;
+    rs.adaptive_min_samples = 8;
+    return rs;
+}
+
+double image_mean(const std::vector<float>& img) {
+    double m = 0.0;
+    for (size_t i = 0; i < img.size(); i += 4) m += img[i] + img[i + 1] + img[i + 2];
+    return m / (3.0 * double(img.size() / 4));
+}
+
+TEST(Adaptive, OffByDefaultConvergesNothing) {
+    const Scene scene = sphere_scene();
+    RenderSettings rs = settings(false, 1);
+    EXPECT_FALSE(RenderSettings{}.adaptive);
+    Renderer r(scene, rs);
+    ASSERT_TRUE(r.render());
+    EXPECT_EQ(r.stats().converged_pixels, 0u);
+    EXPECT_EQ(r.stats().pixels, uint64_t(kRes * kRes));
+    EXPECT_EQ(r.stats().samples, uint64_t(kRes * kRes * kSpp));
+}
+
+// Converged pixels stop at an even count >= the minimum and below spp; the
+// others get every pass; the stats count exactly the samples on the film.
+TEST(Adaptive, ConvergedPixelsStopAtEvenCountsAndStatsAddUp) {
+    const Scene scene = sphere_scene();
+    Renderer ad(scene, settings(true, 5));
+    ASSERT_TRUE(ad.render());
+    Renderer full(scene, settings(false, 5));
+    ASSERT_TRUE(full.render());
+    const RenderStats& st = ad.stats();
+    uint64_t total = 0, converged = 0;
+    for (int y = 0; y < kRes; ++y)
+        for (int x = 0; x < kRes; ++x) {
+            const uint32_t n = ad.film().samples_at(x, y);
+            total += n;
+            if (ad.pixel_converged(x, y)) {
+                ++converged;
+                EXPECT_EQ(n % 2, 0u);
+                EXPECT_GE(n, 8u);
+                EXPECT_LT(n, uint32_t(kSpp));
+            } else {
+                EXPECT_EQ(n, uint32_t(st.spp));
+            }
+        }
+    EXPECT_EQ(converged, st.converged_pixels);
+    EXPECT_EQ(total, st.samples);
+    EXPECT_GT(st.converged_fraction(), 0.3);
+    const uint64_t cam_ad = st.rays[size_t(RayType::Camera)];
+    const uint64_t cam_full = full.stats().rays[size_t(RayType::Camera)];
+    EXPECT_EQ(cam_full, uint64_t(kRes * kRes * kSpp));
+    EXPECT_EQ(cam_ad, st.samples);  // one camera ray per sample
+    EXPECT_LT(double(cam_ad), 0.85 * double(cam_full));
+    // A pixel's samples use the same random numbers in every render with
+    // this seed, so a converged pixel's value is exactly a full render's
+    // with spp = its own count: nothing is lost or re-weighted.
+    const auto img = ad.film().resolve(PassType::Combined);
+    int checked = 0;
+    for (int y = 0; y < kRes && checked < 2; ++y)
+        for (int x = 0; x < kRes && checked < 2; ++x) {
+            if (!ad.pixel_converged(x, y)) continue;
+            RenderSettings rs = settings(false, 5);
+            rs.spp = int(ad.film().samples_at(x, y));
+            const auto ref = test::render_combined(scene, rs);
+            const size_t i = 4 * (size_t(y) * kRes + size_t(x));
+            for (int c = 0; c < 4; ++c) EXPECT_EQ(img[i + c], ref[i + c]) << x << "," << y;
+            ++checked;
+            x += 7;  // a second, different pixel
+        }
+    EXPECT_EQ(checked, 2);
+    std::printf("adaptive: %.1f%% converged, camera rays %llu vs %llu\n", 100.0 * st.converged_fraction(),
+                (unsigned long long)cam_ad, (unsigned long long)cam_full);
+}
+
+// A constant world has zero error everywhere: every pixel converges at the
+// first decision (the minimum, rounded up to even) and the render ends there.
+TEST(Adaptive, AllConvergedEndsRenderAtMinimumSamples) {
+    Scene scene;
+    scene.world_color = Vec3f(0.5f);
+    scene.finalize();
+    RenderSettings rs = settings(true, 3);
+    rs.adaptive_min_samples = 7;  // rounded up to 8
+    Renderer r(scene, rs);
+    ASSERT_TRUE(r.render());
+    EXPECT_EQ(r.stats().spp, 8);
+    EXPECT_EQ(r.stats().converged_pixels, uint64_t(kRes * kRes));
+    EXPECT_DOUBLE_EQ(r.stats().converged_fraction(), 1.0);
+    EXPECT_EQ(r.stats().samples, uint64_t(kRes * kRes * 8));
+    EXPECT_FLOAT_EQ(r.film().resolve(PassType::Combined)[0], 0.5f);
+}
+
+TEST(Adaptive, DeterministicAcrossThreadCounts) {
+    const Scene scene = sphere_scene();
+    RenderSettings a = settings(true, 9), b = settings(true, 9);
+    a.threads = 1;
+    b.threads = 2;
+    b.tile_size = 5;
+    EXPECT_EQ(test::render_combined(scene, a), test::render_combined(scene, b));
+}
+
+// The unbiasedness test. Paired by seed: both renders draw the same random
+// numbers for every sample they share, so the difference isolates what
+// stopping early changes, with far less variance than two independent runs
+// (a stricter test for the same number of seeds).
+TEST(Adaptive, UnbiasedAgainstFullRenderOverSeeds) {
+    const Scene scene = sphere_scene();
+    constexpr int kSeeds = 400;
+    // A lit floor pixel, a pixel near the shadow, one on the sphere.
+    const int px[3][2] = {{2, 13}, {9, 10}, {8, 6}};
+    std::vector<double> d_img;
+    std::vector<std::vector<double>> d_px(3);
+    double converged_sum = 0.0, mean_full = 0.0;
+    for (int s = 0; s < kSeeds; ++s) {
+        RenderStats st;
+        const auto ad = test::render_combined(scene, settings(true, 1000 + s), &st);
+        const auto full = test::render_combined(scene, settings(false, 1000 + s));
+        converged_sum += st.converged_fraction();
+        const double mf = image_mean(full);
+        mean_full += mf / kSeeds;
+        d_img.push_back(image_mean(ad) - mf);
+        for (int k = 0; k < 3; ++k) {
+            const size_t i = 4 * (size_t(px[k][1]) * kRes + size_t(px[k][0]));
+            d_px[k].push_back((ad[i] + ad[i + 1] + ad[i + 2] - full[i] - full[i + 1] - full[i + 2]) / 3.0);
+        }
+    }
+    const double converged = converged_sum / kSeeds;
+    EXPECT_GT(converged, 0.3) << "threshold too strict to test anything";
+    const test::MeanVar img = test::mean_var(d_img);
+    std::printf("adaptive bias: image mean %.5f, diff %.2e +- %.2e (%.2f sigma), converged %.1f%%\n", mean_full,
+                img.mean, img.stderr_of_mean(), img.mean / img.stderr_of_mean(), 100.0 * converged);
+    EXPECT_GT(img.stderr_of_mean(), 0.0);
+    EXPECT_LT(std::abs(img.mean), 4.0 * img.stderr_of_mean());
+    for (int k = 0; k < 3; ++k) {
+        const test::MeanVar p = test::mean_var(d_px[k]);
+        std::printf("  pixel (%d,%d): diff %.2e +- %.2e\n", px[k][0], px[k][1], p.mean, p.stderr_of_mean());
+        // A pixel that never converged has identical samples in both: diff 0.
+        EXPECT_LE(std::abs(p.mean), 4.0 * p.stderr_of_mean() + 1e-7);
+    }
+}
+
+}  // namespace
+}  // namespace coherent
