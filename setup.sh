@@ -18,7 +18,7 @@ step() { printf '\n== %s\n' "$*"; }
 PACKAGES=(
   build-essential cmake pkg-config
   blender python3 python3-dev python3-numpy python3-pytest python3-matplotlib
-  pybind11-dev libtbb-dev libopenimageio-dev openimageio-tools
+  pybind11-dev libtbb-dev libopenimageio-dev openimageio-tools python3-openimageio
   libtinygltf-dev nlohmann-json3-dev libstb-dev
   libgtest-dev libembree-dev
   xvfb libgl1-mesa-dri libglx-mesa0
