@@ -14,7 +14,9 @@ file) and error_set() (shown in the Image Editor).
 
 from __future__ import annotations
 
+import os
 import sys
+import tempfile
 import time
 import traceback
 
@@ -45,6 +47,47 @@ def _format_time(seconds):
 def _format_error(estimate):
     """The relative RMSE estimate as a percentage, or "n/a" before 2 passes."""
     return "n/a" if estimate is None else f"{100.0 * estimate:.1f} %"
+
+
+def _format_prediction(native, seconds, error, target):
+    """Formats " → 1.0 % in ~00:42": time left to the target error, or "" without one.
+
+    The native predicted_seconds_to_error assumes the error keeps falling as
+    1/sqrt(samples), i.e. as 1/sqrt(time).
+    """
+    if error is None or target <= 0.0:
+        return ""
+    total = native.predicted_seconds_to_error(seconds, error, target)
+    if total < 0.0:
+        return ""
+    return f" → {_format_error(target)} in ~{_format_time(total - seconds)}"
+
+
+def convergence_path(scene):
+    """Where write_convergence puts the CSV: `<render output path>_convergence.csv`.
+
+    The output path is this frame's, without its extension; without an output
+    path, the blend file's directory (or the temp dir for an unsaved file).
+    """
+    render = scene.render
+    if render.filepath.strip():
+        base = os.path.splitext(bpy.path.abspath(render.frame_path(frame=scene.frame_current)))[0]
+    else:
+        directory = os.path.dirname(bpy.data.filepath) if bpy.data.filepath else tempfile.gettempdir()
+        stem = bpy.path.display_name_from_filepath(bpy.data.filepath) if bpy.data.filepath else "untitled"
+        base = os.path.join(directory, f"{stem}_{scene.frame_current:04d}")
+    return base + "_convergence.csv"
+
+
+def write_convergence_csv(path, rows):
+    """Writes (seconds, spp, error_estimate) rows as `coherent render --convergence` does."""
+    directory = os.path.dirname(path)
+    if directory:
+        os.makedirs(directory, exist_ok=True)
+    with open(path, "w", encoding="ascii", newline="") as f:
+        f.write("seconds,spp,error_estimate\n")
+        for seconds, spp, error in rows:
+            f.write(f"{seconds:.6f},{spp},{error!r}\n")
 
 
 def render_size(render):
@@ -200,7 +243,9 @@ class CoherentRenderEngine(bpy.types.RenderEngine):
             if (result.resolution_x, result.resolution_y) != (renderer.film_width, renderer.film_height):
                 raise RuntimeError(f"render result is {result.resolution_x}x{result.resolution_y} pixels, "
                                    f"expected {renderer.film_width}x{renderer.film_height}")
-            finished = renderer.render(self._progress_callback(renderer, result))
+            convergence = []  # (seconds, spp, error) per completed pass with an estimate
+            finished = renderer.render(self._progress_callback(renderer, result, native, props.target_error,
+                                                               convergence))
             self._write_passes(result, renderer, names=None)
         finally:
             self.end_result(result)
@@ -219,8 +264,20 @@ class CoherentRenderEngine(bpy.types.RenderEngine):
         self.report({"INFO"}, summary)
         if stats.get("nonfinite_samples"):
             self._warn(f"{stats['nonfinite_samples']} samples were NaN/Inf and discarded")
+        if finished and props.write_convergence:
+            path = convergence_path(scene)
+            try:
+                write_convergence_csv(path, convergence)
+            except OSError as e:
+                self._warn(f"could not write the convergence record {path}: {e.strerror or e}")
+            else:
+                message = f"Coherent: convergence record ({len(convergence)} passes) written to {path}"
+                print(message)
+                self.report({"INFO"}, message)
 
-    def _progress_callback(self, renderer, result):
+    def _progress_callback(self, renderer, result, native, target_error, convergence):
+        """The per-pass callback; appends (seconds, spp, error) to `convergence`
+        for every completed pass that has an error estimate."""
         last_preview = [time.monotonic()]
         last_done = [0]
 
@@ -230,7 +287,10 @@ class CoherentRenderEngine(bpy.types.RenderEngine):
             self.update_progress(fraction)
             remaining = seconds * (1.0 - fraction) / fraction if fraction > 0.0 else 0.0
             error = p["error_estimate"]
-            error_text = f" | Error {_format_error(error)}" if error is not None else ""
+            error_text = ""
+            if error is not None:
+                prediction = _format_prediction(native, seconds, error, target_error)
+                error_text = f" | Error {_format_error(error)}{prediction}"
             self.update_stats("", f"Sample {done}/{total}{error_text} | {p['mrays_per_s']:.1f} Mrays/s | "
                                   f"Time {_format_time(seconds)} | Remaining {_format_time(remaining)}")
             # The film may only be read in the report that ends a pass (the
@@ -238,6 +298,8 @@ class CoherentRenderEngine(bpy.types.RenderEngine):
             # pass run while worker threads are still adding samples.
             pass_ended = done != last_done[0]
             last_done[0] = done
+            if pass_ended and error is not None:
+                convergence.append((seconds, done, error))
             now = time.monotonic()
             if pass_ended and done < total and now - last_preview[0] >= PREVIEW_INTERVAL:
                 self._write_passes(result, renderer, names=("Combined",))

@@ -25,6 +25,12 @@ class CoherentRenderSettings(bpy.types.PropertyGroup):
         name="Time Limit", description="Stop the final render after the sample pass that ends past this many "
                                        "seconds; 0 = off",
         default=0.0, min=0.0, soft_max=3600.0, unit="TIME_ABSOLUTE", subtype="TIME_ABSOLUTE")
+    write_convergence: BoolProperty(
+        name="Write Convergence", description="After a final render, write <output path>_convergence.csv "
+                                              "(seconds, samples and estimated error of every sample pass) next "
+                                              "to the render output, to see what accuracy costs in time "
+                                              "(plot it with `coherent plot`)",
+        default=False)
     use_pass_error: BoolProperty(
         name="Error", description="Write an 'Error' pass: per pixel, the estimated RMS error of the rendered "
                                   "radiance (from the even and odd sample passes)",

@@ -43,6 +43,7 @@ class RENDER_PT_coherent_sampling(CoherentButtonsPanel, bpy.types.Panel):
         col = layout.column(align=True)
         col.prop(props, "target_error")
         col.prop(props, "time_limit")
+        col.prop(props, "write_convergence")
         col = layout.column()
         row = col.row(align=True)
         row.prop(props, "seed")

@@ -16,6 +16,14 @@ std::string render_report_json(const RenderReport& r) {
         j["error_estimate"] = nullptr;
     j["target_error"] = r.settings.target_error;
     j["time_limit"] = r.settings.time_limit;
+    // Adaptive sampling: null when off, else its settings and outcome.
+    if (r.settings.adaptive)
+        j["adaptive"] = {{"threshold", r.settings.adaptive_threshold},
+                         {"min_samples", r.settings.adaptive_min_samples},
+                         {"converged_pixels", r.stats.converged_pixels},
+                         {"converged_fraction", r.stats.converged_fraction()}};
+    else
+        j["adaptive"] = nullptr;
     j["width"] = r.settings.width;
     j["height"] = r.settings.height;
 

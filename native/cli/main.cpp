@@ -7,6 +7,7 @@
 
 #include "core/version.h"
 #include "options.h"
+#include "plot_command.h"
 #include "render_command.h"
 
 int main(int argc, char** argv) {
@@ -26,6 +27,7 @@ int main(int argc, char** argv) {
         return kExitOk;
     }
     if (command == "render") return run_render(std::vector<std::string>(args.begin() + 1, args.end()));
+    if (command == "plot") return run_plot(std::vector<std::string>(args.begin() + 1, args.end()));
     std::fprintf(stderr, "coherent: error: unknown command '%s' (see coherent --help)\n", command.c_str());
     return kExitBadUsage;
 }

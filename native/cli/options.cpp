@@ -67,6 +67,17 @@ bool parse_target_error(RenderOptions& o, const char* v, std::string& e) {
 bool parse_time_limit(RenderOptions& o, const char* v, std::string& e) {
     return parse_nonnegative_real(v, 1e9, "--time-limit", o.settings.time_limit, e);
 }
+bool parse_adaptive(RenderOptions& o, const char*, std::string&) {
+    o.settings.adaptive = true;
+    return true;
+}
+bool parse_adaptive_threshold(RenderOptions& o, const char* v, std::string& e) {
+    o.settings.adaptive = true;  // giving a threshold asks for adaptive sampling
+    if (!parse_nonnegative_real(v, 1.0, "--adaptive-threshold", o.settings.adaptive_threshold, e)) return false;
+    if (o.settings.adaptive_threshold > 0.0) return true;
+    e = "--adaptive-threshold: expected a number in (0, 1], got " + std::string(v);
+    return false;
+}
 bool parse_seed(RenderOptions& o, const char* v, std::string& e) {
     return parse_integer<uint64_t>(v, 0, UINT64_MAX, "--seed", o.settings.seed, e);
 }
@@ -104,6 +115,10 @@ bool parse_packet(RenderOptions& o, const char* v, std::string& e) {
     const std::string w(v, size_t(x - v)), h(x + 1);
     return parse_integer(w.c_str(), 1, kMaxPacket, "--packet width", o.settings.packet_width, e) &&
            parse_integer(h.c_str(), 1, kMaxPacket, "--packet height", o.settings.packet_height, e);
+}
+bool parse_convergence(RenderOptions& o, const char* v, std::string&) {
+    o.convergence = v;
+    return true;
 }
 bool parse_json(RenderOptions& o, const char*, std::string&) {
     o.json = true;
@@ -158,6 +173,15 @@ const std::vector<OptionSpec>& render_option_table() {
          parse_target_error},
         {"--time-limit", nullptr, "S",
          "stop after the sample pass that ends past S seconds of rendering; 0 = off (default 0)", parse_time_limit},
+        {"--adaptive", nullptr, nullptr,
+         "adaptive sampling: after " + std::to_string(d.adaptive_min_samples) +
+             " spp, pixels whose estimated relative error (and their 3x3 neighbours') is below the threshold stop "
+             "taking samples",
+         parse_adaptive},
+        {"--adaptive-threshold", nullptr, "T",
+         "relative per-pixel error at which adaptive sampling stops a pixel; implies --adaptive (default " +
+             std::to_string(d.adaptive_threshold).substr(0, 4) + ")",
+         parse_adaptive_threshold},
         {"--seed", nullptr, "S", "random seed (default " + std::to_string(d.seed) + ")", parse_seed},
         {"--threads", nullptr, "T", "worker threads, 0 = all cores (default " + std::to_string(d.threads) + ")",
          parse_threads},
@@ -177,6 +201,10 @@ const std::vector<OptionSpec>& render_option_table() {
          "cpt/icpt: share sequences per packet (packet: the paper's Fig. 3) or over the whole image (image: its "
          "equation 3) (default " + std::string(sequence_scope_name(d.sequence_scope)) + ")",
          parse_sequences},
+        {"--convergence", nullptr, "CSV",
+         "write seconds,spp,error_estimate per completed sample pass (from the 2nd, when an estimate exists); "
+         "plot it with coherent plot CSV",
+         parse_convergence},
         {"--json", nullptr, nullptr, "print render statistics as one JSON object on stdout", parse_json},
         {"--all-features", nullptr, nullptr,
          "run the general kernel with every effect on instead of the one specialised for this scene's features "
@@ -252,6 +280,7 @@ std::string main_usage() {
            "\n"
            "commands:\n"
            "  render SCENE.glb -o OUT.exr|OUT.png [options]   render a glTF scene to an image\n"
+           "  plot CONVERGENCE.csv [-o OUT.png]               plot a --convergence record (error vs time)\n"
            "\n"
            "options:\n"
            "  --help, -h     show this help (coherent render --help for render options)\n"

@@ -21,6 +21,7 @@ enum ExitCode : int {
 struct RenderOptions {
     std::string scene;   // positional
     std::string output;  // -o
+    std::string convergence;  // --convergence CSV, empty = none
     RenderSettings settings;
     bool json = false;
     bool help = false;

@@ -7,6 +7,8 @@
 #include <cstdio>
 #include <string>
 
+#include "render/convergence.h"
+
 namespace coherent::cli {
 namespace {
 
@@ -24,7 +26,8 @@ std::string format_duration(double seconds) {
 
 }  // namespace
 
-ProgressBar::ProgressBar() : enabled_(isatty(STDERR_FILENO) == 1) {}
+ProgressBar::ProgressBar(double target_error)
+    : enabled_(isatty(STDERR_FILENO) == 1), target_error_(target_error) {}
 
 void ProgressBar::update(const Progress& p) {
     if (!enabled_) return;
@@ -43,8 +46,16 @@ void ProgressBar::update(const Progress& p) {
     const double mrays = p.seconds > 0.0 ? rays / p.seconds * 1e-6 : 0.0;
     const double eta = fraction > 0.0 ? p.seconds * (1.0 - fraction) / fraction : NAN;
     // \r returns to the line start; \033[K clears what a longer line left.
-    char error[32] = "";
-    if (p.error_estimate >= 0.0) std::snprintf(error, sizeof(error), "  error %.2f %%", 100.0 * p.error_estimate);
+    // "error 2.10 % -> 1.00 % in ~00:42": the time left to the target if the
+    // error keeps falling as 1/sqrt(samples).
+    char error[96] = "";
+    if (p.error_estimate >= 0.0) {
+        int n = std::snprintf(error, sizeof(error), "  error %.2f %%", 100.0 * p.error_estimate);
+        const double t_target = predicted_seconds_to_error(p.seconds, p.error_estimate, target_error_);
+        if (t_target >= 0.0 && n > 0 && size_t(n) < sizeof(error))
+            std::snprintf(error + n, sizeof(error) - size_t(n), " -> %.2f %% in ~%s", 100.0 * target_error_,
+                          format_duration(std::max(0.0, t_target - p.seconds)).c_str());
+    }
     std::fprintf(stderr, "\r[%s] %3d%%  %d/%d spp%s  %.1f Mrays/s  ETA %s\033[K", bar.c_str(),
                  int(fraction * 100.0), p.samples_done, p.samples_total, error, mrays, format_duration(eta).c_str());
     std::fflush(stderr);

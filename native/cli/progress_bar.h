@@ -1,4 +1,5 @@
-// A one-line progress bar on stderr (samples done/total, Mrays/s, ETA),
+// A one-line progress bar on stderr (samples done/total, error estimate and
+// predicted time to the target error, Mrays/s, ETA),
 // drawn only when stderr is a terminal so logs and pipes stay clean.
 #pragma once
 
@@ -10,8 +11,9 @@ namespace coherent::cli {
 
 class ProgressBar {
 public:
-    // Enabled iff stderr is a terminal.
-    ProgressBar();
+    // Enabled iff stderr is a terminal. With a target error (> 0) the bar
+    // also predicts the time left to reach it.
+    explicit ProgressBar(double target_error = 0.0);
     // Redraws at most ~10 times a second (and always for the last sample).
     void update(const Progress& progress);
     // Ends the line so later messages start on a fresh one.
@@ -20,6 +22,7 @@ public:
 
 private:
     bool enabled_ = false;
+    double target_error_ = 0.0;
     bool drawn_ = false;
     std::chrono::steady_clock::time_point last_draw_{};
 };

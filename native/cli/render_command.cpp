@@ -7,6 +7,7 @@
 #include <exception>
 #include <memory>
 
+#include "convergence_log.h"
 #include "io/gltf.h"
 #include "io/image.h"
 #include "json_report.h"
@@ -82,18 +83,29 @@ int render(const RenderOptions& options) {
     const double build_seconds = seconds_since(build_start);
     RendererRegistration registration(renderer);
 
-    ProgressBar bar;
+    ConvergenceLog convergence;
+    std::string error;
+    if (!options.convergence.empty() && !convergence.open(options.convergence, error)) {
+        print_error(error);
+        return kExitBadInput;
+    }
+
+    ProgressBar bar(settings.target_error);
     const auto render_start = std::chrono::steady_clock::now();
     const bool finished = renderer.render([&](const Progress& p) {
         bar.update(p);
+        convergence.record(p);
         return !g_interrupted.load(std::memory_order_relaxed);
     });
     const double render_seconds = seconds_since(render_start);
     bar.finish();
     if (!finished || g_interrupted.load()) return interrupted();
+    if (!convergence.close(error)) {
+        print_error(error);
+        return kExitBadInput;
+    }
 
     // --- write --------------------------------------------------------------
-    std::string error;
     if (!write_film(options.output, renderer.film(), error)) {
         print_error(error);
         return kExitBadInput;

@@ -4,6 +4,7 @@
 #include <thread>
 
 #include "bindings.h"
+#include "render/convergence.h"
 #include "render/stats.h"
 #include "scene/features.h"
 
@@ -46,4 +47,7 @@ PYBIND11_MODULE(_coherent, m) {
     m.attr("all_features") = SceneFeatures::all().names();
     m.def("hardware_threads", [] { return std::max(1u, std::thread::hardware_concurrency()); },
           "Number of hardware threads (what threads=0 uses).");
+    m.def("predicted_seconds_to_error", &predicted_seconds_to_error, py::arg("seconds"), py::arg("error"), py::arg("target"),
+          "Total render seconds at which the error estimate reaches `target` if it keeps falling as 1/sqrt(samples): "
+          "seconds * (error / target)**2; negative when no prediction is possible (no estimate or no target).");
 }

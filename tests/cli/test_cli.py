@@ -403,3 +403,100 @@ def test_stopping_rule_options_reject_bad_values(cli, tmp_path, option, value):
     assert r.returncode == 2, r.stderr
     assert one_line(r.stderr) and option in r.stderr
     assert not out.exists()
+
+
+# --- convergence record and plot ----------------------------------------------------------------
+
+
+def read_convergence(path):
+    lines = Path(path).read_text().strip("\n").split("\n")
+    assert lines[0] == "seconds,spp,error_estimate"
+    rows = [line.split(",") for line in lines[1:]]
+    assert all(len(r) == 3 for r in rows), lines
+    return [(float(t), int(n), float(e)) for t, n, e in rows]
+
+
+@pytest.fixture(scope="module")
+def convergence_csv(cli, tmp_path_factory):
+    d = tmp_path_factory.mktemp("convergence")
+    csv = d / "cornell.csv"
+    r = run(cli, "render", CORNELL, "-o", d / "cornell.png", "--res", 48, 48, "--spp", 32, "--threads", 2,
+            "--json", "--convergence", csv)
+    assert r.returncode == 0, r.stderr
+    return csv, json.loads(r.stdout)
+
+
+def test_convergence_csv_has_one_row_per_pass_with_an_estimate(convergence_csv):
+    csv, report = convergence_csv
+    rows = read_convergence(csv)
+    seconds = [t for t, _, _ in rows]
+    spp = [n for _, n, _ in rows]
+    errors = [e for _, _, e in rows]
+    # An estimate exists from the second pass on: passes 2..32, one row each.
+    assert spp == list(range(2, 33))
+    assert report["spp"] == spp[-1] == 32
+    assert all(b >= a for a, b in zip(seconds, seconds[1:])), seconds
+    assert all(e > 0.0 for e in errors), errors
+    # Noise falls with samples: 16x the samples should cut the error ~4x; ask for less than half.
+    assert errors[-1] < 0.5 * errors[0], errors
+
+
+def test_convergence_with_target_error_ends_at_or_below_target(cli, tmp_path):
+    csv = tmp_path / "c.csv"
+    r = run(cli, "render", CORNELL, "-o", tmp_path / "c.png", "--res", 48, 48, "--spp", 4096, "--threads", 2,
+            "--target-error", "0.5", "--convergence", csv)
+    assert r.returncode == 0, r.stderr
+    rows = read_convergence(csv)
+    assert rows[-1][1] < 4096 and rows[-1][2] <= 0.5
+    # The rule is checked after even pass counts: it stopped at the first one that met the target.
+    assert all(e > 0.5 for _, n, e in rows[:-1] if n % 2 == 0), rows
+
+
+def test_convergence_unwritable_path_fails_before_rendering(cli, tmp_path):
+    out = tmp_path / "never.png"
+    r = run(cli, "render", CORNELL, "-o", out, "--res", 16, 16, "--spp", 2,
+            "--convergence", tmp_path / "missing_dir" / "c.csv")
+    assert r.returncode == 1
+    assert one_line(r.stderr) and "convergence" in r.stderr
+    assert not out.exists()
+
+
+def test_plot_writes_png(cli, convergence_csv, tmp_path):
+    csv, _ = convergence_csv
+    png = tmp_path / "plot.png"
+    r = run(cli, "plot", csv, "-o", png)
+    assert r.returncode == 0, r.stderr
+    data = png.read_bytes()
+    assert data[:8] == b"\x89PNG\r\n\x1a\n"
+    assert len(data) > 1024
+    w, h = struct.unpack(">II", data[16:24])  # IHDR
+    assert w > 100 and h > 100
+
+
+def test_plot_default_output_is_csv_path_with_png(cli, convergence_csv, tmp_path):
+    csv, _ = convergence_csv
+    copy = tmp_path / "record.csv"
+    copy.write_text(Path(csv).read_text())
+    r = run(cli, "plot", copy)
+    assert r.returncode == 0, r.stderr
+    assert (tmp_path / "record.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+@pytest.mark.parametrize("content", ["", "not,a,header\n1,2,3\n", "seconds,spp,error_estimate\n",
+                                     "seconds,spp,error_estimate\n0.1,2,abc\n",
+                                     "seconds,spp,error_estimate\n0.1,2,-0.5\n",
+                                     "seconds,spp,error_estimate\n0.1,2\n"])
+def test_plot_bad_csv_is_one_line_error(cli, tmp_path, content):
+    csv = tmp_path / "bad.csv"
+    csv.write_text(content)
+    r = run(cli, "plot", csv, "-o", tmp_path / "bad.png")
+    assert r.returncode != 0
+    assert one_line(r.stderr), r.stderr
+    assert "error" in r.stderr
+    assert not (tmp_path / "bad.png").exists()
+
+
+def test_plot_missing_csv_is_one_line_error(cli, tmp_path):
+    r = run(cli, "plot", tmp_path / "nope.csv")
+    assert r.returncode != 0
+    assert one_line(r.stderr), r.stderr
