@@ -129,8 +129,9 @@ def _blender_main(out_path):
                 times.append((s.first_frame_at - t_edit) * 1e3)
                 yield from wait(lambda: s.stage > 0 or len(s.stages) == 1)  # let it refine a little
             result["restart_ms"][name] = statistics.median(times)
+            if name == "transform":
+                result["bvh_seconds"] = session().bvh_seconds  # the transform's BVH refit (copy + refit)
         result["counters"] = dict(session().counters)
-        result["bvh_seconds"] = s.bvh_seconds  # the latest: a transform's fast build
 
     steps = run()
 
@@ -206,21 +207,28 @@ def main():
             f"{r['restart_ms'][edit]:.0f}" if edit in r["restart_ms"] else "-" for r in rows.values()) + " |")
     lines.append("| BVH build, first (spatial splits) (s) | " + " | ".join(
         f"{r['bvh_seconds_initial']:.3f}" for r in rows.values()) + " |")
-    lines.append("| BVH build after a transform (binned SAH) (s) | " + " | ".join(
+    lines.append("| BVH refit after a transform (copy + refit) (s) | " + " | ".join(
         f"{r['bvh_seconds']:.3f}" for r in rows.values()) + " |")
     lines += [
         "",
         "Orbit, material and light restarts reuse the BVH (the native Scene keeps it; only the camera,",
-        "a material or the lights change in place). A transform rebuilds the native scene from the",
-        "session's cached mesh arrays (no mesh is re-extracted from Blender) and rebuilds the BVH,",
-        "which is what the transform row measures on the scene's largest mesh.",
+        "a material or the lights change in place). A transform re-exports the native scene from the",
+        "session's cached mesh arrays (no mesh is re-extracted from Blender, so the triangles keep",
+        "their order) and refits a copy of the previous BVH to the moved triangles",
+        "(`Scene.refit_bvh_from`, `Bvh::refit`: boxes recomputed bottom-up, same topology and 8-wide",
+        "collapse), which is what the transform row measures on the scene's largest mesh. Adding or",
+        "deleting objects or editing a mesh still rebuilds the BVH (binned SAH, no spatial splits).",
+        "",
+        "Before the refit, the same benchmark measured the transform restart at 242 ms on Sponza",
+        "(0.219 s of it the binned-SAH rebuild) and 38 ms on the Cornell box; compare the transform",
+        "row above. The refit keeps the topology of the first (spatial-split) build, so the hits stay",
+        "exact but a tree whose objects moved far from where they were built traces slower; the",
+        "viewport rebuilds it only when the set of objects or a mesh changes.",
         "",
         "Reading the numbers: the first frame of Sponza is dominated by exporting 262k triangles from",
         "383 objects (~0.3 s) and building the BVH with spatial splits (row above); the coarse first",
-        "stage itself renders in tens of milliseconds. A transform on Sponza rebuilds the native scene",
-        "from cached arrays (~50 ms) and the BVH without spatial splits (0.13-0.22 s, about 1.7x slower to",
-        "trace than the spatial-split BVH): just over the 200 ms goal. A refit or per-object BVHs",
-        "(two-level) would remove the rebuild. Machine shared with other engineers' builds: the",
+        "stage itself renders in tens of milliseconds. A transform on Sponza now costs the re-export",
+        "from cached arrays (~50 ms) plus the refit. Machine shared with other engineers' builds: the",
         "seconds-scale rows are noisy (an earlier run under load measured 3.3 s / 1.6 s for Sponza).",
         "",
         "Raw results:",

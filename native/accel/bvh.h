@@ -80,6 +80,8 @@ struct BvhBuildStats {
     // SAH estimate of wide-node visits per ray that enters the root (what
     // the optimal collapse minimises).
     double wide_node_visit_estimate = 0.0;
+    // Seconds of the latest refit() (0 if never refit).
+    double refit_seconds = 0.0;
 };
 
 class Bvh {
@@ -89,6 +91,20 @@ public:
     void build(const Scene& scene, const BvhBuildOptions& opt = {});
     // For tests and tools: build over a raw triangle soup (3 vertices per triangle).
     void build(const std::vector<Vec3f>& triangle_vertices, const BvhBuildOptions& opt = {});
+
+    // Refit (bvh_refit.cpp): the triangles kept their indices and only their
+    // vertices moved (e.g. an object transform). Recomputes every box
+    // bottom-up from the current vertices and refreshes the traversal layout
+    // in place, keeping the topology, leaf order and 8-wide collapse. Hits
+    // stay exact (boxes stay conservative; spatial-split references get the
+    // whole triangle's box), only the tree's quality may degrade when
+    // triangles move far. The caller passes the triangles the BVH was built
+    // over (same count, same order; throws std::invalid_argument if a
+    // referenced triangle does not exist). Triangles left out of the build
+    // (non-finite vertices) stay out; a triangle whose vertices became
+    // non-finite keeps its leaf but no longer widens any box.
+    void refit(const Scene& scene);
+    void refit(const std::vector<Vec3f>& triangle_vertices);
 
     // Closest hit with t in (ray.tmin, ray.tmax] (half-open, as in ray.h and
     // Embree: a hit exactly at tmin, e.g. from an origin lying on a surface,
@@ -115,6 +131,7 @@ private:
     bool traverse(const Ray& ray, Hit* hit, TraversalCounters* counters) const;
 
     void build_traversal_layout(const Vec3f* triangle_vertices, bool optimal_collapse);
+    void refit_from(const Vec3f* triangle_vertices, size_t triangle_count);
 
     std::vector<BvhNode> nodes_;
     std::vector<uint32_t> prim_order_;  // leaf slot -> scene triangle index
@@ -122,6 +139,10 @@ private:
     // (root first), one or more TrianglePack4 per leaf.
     std::vector<WideNode8, AlignedAllocator<WideNode8, 64>> wide_;
     std::vector<TrianglePack4, AlignedAllocator<TrianglePack4, 64>> packs_;
+    // Binary node of each wide child slot (kWideWidth per wide node,
+    // kEmptyChild for unused slots): lets refit() refresh the wide boxes
+    // without redoing the collapse.
+    std::vector<uint32_t> wide_binary_;
     BvhBuildStats stats_;
 };
 

@@ -127,6 +127,7 @@ private:
 void Bvh::build_traversal_layout(const Vec3f* verts, bool optimal_collapse) {
     wide_.clear();
     packs_.clear();
+    wide_binary_.clear();
     if (nodes_.empty()) return;
 
     // Leaves -> packs, in node order (any fixed order works; this one follows
@@ -160,6 +161,8 @@ void Bvh::build_traversal_layout(const Vec3f* verts, bool optimal_collapse) {
     if (nodes_[0].is_leaf()) {
         wide_.push_back(empty_wide_node());
         set_child(wide_[0], 0, nodes_[0].box, pack_of[0], nodes_[0].count);
+        wide_binary_.assign(kWideWidth, kEmptyChild);
+        wide_binary_[0] = 0;
         stats_.wide_nodes = 1;
         stats_.wide_node_visit_estimate = 0.0;
         return;
@@ -215,6 +218,8 @@ void Bvh::build_traversal_layout(const Vec3f* verts, bool optimal_collapse) {
         if (n < 2 || n > kWideWidth) __builtin_unreachable();  // both collapses fill 2..8 slots
         // Children in the order they appear in nodes_ (left-to-right in the tree).
         std::sort(children, children + n);
+        wide_binary_.resize(wide_.size() * kWideWidth, kEmptyChild);
+        for (int c = 0; c < n; ++c) wide_binary_[size_t(it.wide) * kWideWidth + c] = children[c];
         // Reserve the interior children's wide nodes now, so that each wide
         // node's children follow it (depth-first within the stack order).
         for (int c = 0; c < n; ++c) {
@@ -230,6 +235,7 @@ void Bvh::build_traversal_layout(const Vec3f* verts, bool optimal_collapse) {
             }
         }
     }
+    wide_binary_.resize(wide_.size() * kWideWidth, kEmptyChild);  // the last nodes' slots
     stats_.wide_nodes = wide_.size();
     stats_.wide_node_visit_estimate = visit_estimate;
 }

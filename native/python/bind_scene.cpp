@@ -7,6 +7,7 @@
 // an integer dtype (a float index array is a TypeError, because silently
 // truncating 2.7 to 2 hides exporter bugs) and are converted to uint32 with
 // out-of-range values mapped to an index the scene validation then drops.
+#include <chrono>
 #include <cmath>
 #include <cstring>
 #include <limits>
@@ -420,6 +421,35 @@ double build_bvh(PyScene& self, bool spatial_splits) {
     return bvh->build_stats().seconds;
 }
 
+// Scene.refit_bvh_from: `self` holds the same triangles as `previous`, in
+// the same order, some of them moved (an interactive transform edit exports
+// a new scene from cached meshes). Instead of a rebuild, `self` gets a copy
+// of previous's BVH refit to its vertices (Bvh::refit): same exact hits, a
+// fraction of the build time.
+double refit_bvh_from(PyScene& self, const PyScene& previous) {
+    if (!previous.bvh) throw py::value_error("refit_bvh_from: the previous scene has no BVH");
+    if (previous.scene.triangle_count() != self.scene.triangle_count())
+        throw py::value_error("refit_bvh_from: the previous scene has " +
+                              std::to_string(previous.scene.triangle_count()) + " triangles, this one " +
+                              std::to_string(self.scene.triangle_count()) + "; only a same-size scene can refit");
+    self.ensure_finalized();
+    const auto start = std::chrono::steady_clock::now();
+    std::shared_ptr<const Bvh> source = previous.bvh;  // kept alive while the GIL is released
+    auto bvh = std::make_shared<Bvh>();
+    self.active_renderers.fetch_add(1);  // no mutation of `self` while unlocked (as build_bvh)
+    try {
+        py::gil_scoped_release unlocked;
+        *bvh = *source;
+        bvh->refit(self.scene);
+    } catch (...) {
+        self.active_renderers.fetch_sub(1);
+        throw;
+    }
+    self.active_renderers.fetch_sub(1);
+    self.bvh = bvh;
+    return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+}
+
 }  // namespace
 
 void PyScene::check_mutable(const char* what) const {
@@ -481,6 +511,13 @@ Builds the BVH over the current triangles now and keeps it for the next
 Renderers (which otherwise build one with spatial splits). Without spatial
 splits the build is several times faster and traversal somewhat slower: the
 trade interactive viewports want after a geometry edit. Returns build seconds.)doc")
+        .def("refit_bvh_from", &refit_bvh_from, py::arg("previous"), R"doc(
+Keeps a copy of `previous`'s BVH refit to this scene's triangles instead of
+building one: for a scene with the same triangles in the same order, some of
+them moved (a transform edit re-exported from cached meshes). Hits are exact
+either way; the refit tree keeps the old topology, so it traces somewhat
+slower when objects moved far. Raises ValueError if `previous` has no BVH or
+a different triangle count. Returns seconds (copy + refit).)doc")
         .def("add_light", &add_light, py::arg("type") = "POINT", py::kw_only(),
              py::arg("color") = py::make_tuple(1.0, 1.0, 1.0), py::arg("power") = 10.0,
              py::arg("position") = py::make_tuple(0.0, 0.0, 0.0), py::arg("direction") = py::make_tuple(0.0, 0.0, -1.0),

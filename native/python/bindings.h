@@ -39,8 +39,8 @@ struct PyScene {
     // The BVH over the current triangles, built by Scene.build_bvh() or the
     // first Renderer and reused by the next ones (interactive viewports
     // restart a Renderer on every camera, material, light or world edit).
-    // Invariant: null or built from exactly `scene`'s current triangles;
-    // add_mesh resets it.
+    // Invariant: null or built (or refit, Scene.refit_bvh_from) over exactly
+    // `scene`'s current triangles; add_mesh resets it.
     std::shared_ptr<const Bvh> bvh;
 
     void check_mutable(const char* what) const;

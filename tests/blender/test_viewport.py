@@ -1,8 +1,8 @@
 # The interactive viewport (addon/coherent/viewport.py).
 #
 # test_incremental_updates: headless; every kind of edit must be applied
-# incrementally (no mesh re-extracted for transforms, no BVH rebuilt for
-# camera/material/light/world edits) and the incrementally updated scene must
+# incrementally (no mesh re-extracted and the BVH refit, not rebuilt, for
+# transforms; no BVH rebuilt for camera/material/light/world edits) and the incrementally updated scene must
 # render exactly like a scene exported from scratch (the independent oracle).
 #
 # test_rendered_viewport_in_a_window: real Blender in an X window (Xvfb,
@@ -56,11 +56,17 @@ def test_incremental_updates(updates_report):
 
     # A camera-only change reuses the BVH.
     assert steps["camera"]["bvh_reused"] and _counter_deltas(steps["camera"]) == {}
-    # A transform rebuilds geometry from the cache: nothing re-extracted.
+    # A transform re-exports the scene from the cache (nothing re-extracted)
+    # and refits the previous BVH instead of building one; the oracle above
+    # shows the refit BVH finds exactly the hits of a freshly built one.
     t = steps["transform"]
-    assert _counter_deltas(t) == {"full_exports": 1, "geometry_rebuilds": 1}
+    assert t["before"]["has_bvh"], "the transform step needs a BVH to refit"
+    assert _counter_deltas(t) == {"full_exports": 1, "transform_updates": 1, "bvh_refits": 1}
     assert t["after"]["extracted"] == t["before"]["extracted"]
-    assert not t["bvh_reused"]
+    assert t["after"]["has_bvh"] and t["bvh_reused"], "the transform edit did not keep a (refit) BVH"
+    r = steps["rotate_scale"]
+    assert _counter_deltas(r) == {"full_exports": 1, "transform_updates": 1, "bvh_refits": 1}
+    assert r["bvh_reused"]
     # Material, light and world edits keep the scene's triangles and BVH.
     for name, counter in (("material", "material_updates"), ("light_energy", "light_updates"),
                           ("light_move", "light_updates"), ("world", "world_updates")):
@@ -76,9 +82,11 @@ def test_incremental_updates(updates_report):
     m = steps["mesh_edit"]
     assert m["after"]["extracted"] == m["before"]["extracted"] + 1
     assert not m["bvh_reused"]
+    assert _counter_deltas(m).get("bvh_refits", 0) == 0
     # Deleting an object removes its triangles and its cache entry.
     d = steps["delete"]
     assert d["after"]["triangles"] < d["before"]["triangles"]
+    assert not d["bvh_reused"] and _counter_deltas(d).get("bvh_refits", 0) == 0, "a changed triangle set must rebuild"
     assert d["after"]["cached_meshes"] == d["before"]["cached_meshes"] - 1
 
 
@@ -146,7 +154,10 @@ def test_rendered_viewport_in_a_window(user_scripts, blend_scenes, tmp_path):
     assert inside > 0.05 and inside > 4.0 * outside, f"change where the box moved {inside:.4f}, elsewhere {outside:.4f}"
     # The move re-exported no mesh.
     assert r["extracted_2"] == r["extracted_1"]
-    assert r["counters_2"]["geometry_rebuilds"] == r["counters_1"]["geometry_rebuilds"] + 1
+    # It refit the BVH: no rebuild.
+    c1, c2 = r["counters_1"], r["counters_2"]
+    assert c2["transform_updates"] > c1["transform_updates"] and c2["bvh_refits"] > c1["bvh_refits"]
+    assert c2["geometry_rebuilds"] == c1["geometry_rebuilds"] and c2["bvh_builds"] == c1["bvh_builds"]
 
     # 3. Closing the Rendered view stops the render thread and frees it:
     # the thread count returns to what it was without a viewport render

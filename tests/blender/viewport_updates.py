@@ -99,6 +99,9 @@ step("material", lambda: set_color(white, (0.2, 0.7, 0.3)))
 step("light_energy", lambda: setattr(light.data, "energy", light.data.energy * 2.0))
 step("light_move", lambda: setattr(light.location, "z", light.location.z - 0.05))
 step("world", lambda: set_world((0.3, 0.2, 0.1)))
+# Rotated and scaled about its origin: every triangle of the box moves.
+step("rotate_scale", lambda: (setattr(short.rotation_euler, "z", short.rotation_euler.z + 0.6),
+                              setattr(short, "scale", (1.3, 0.8, 1.1))))
 step("mesh_edit", move_vertex)
 step("delete", lambda: bpy.data.objects.remove(short))
 
