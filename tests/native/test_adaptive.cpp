@@ -16,35 +16,10 @@
 namespace coherent {
 namespace {
 
-using test::add_quad;
-using test::add_sphere;
-using test::diffuse_material;
-using test::emission_material;
 
 constexpr int kRes = 16;
 constexpr int kSpp = 64;
 
-// A diffuse sphere on a floor under a small area light: smooth lit floor
-// (converges early) next to soft shadows and the sphere's rim (do not).
-Scene sphere_scene() {
-    Scene s;
-    const uint32_t white = s.add_material(diffuse_material(Vec3f(0.7f)));
-    const uint32_t red = s.add_material(diffuse_material(Vec3f(0.8f, 0.2f, 0.1f)));
-    const uint32_t light = s.add_material(emission_material(Vec3f(4.0f)));
-    add_quad(s, {0, 0, 0}, {1, 0, 0}, {0, 1, 0}, 6.0f, 6.0f, white, "floor");
-    add_sphere(s, {0, 0, 1}, 1.0f, red, 16, 32);
-    add_quad(s, {1, 1, 4}, {0, 1, 0}, {1, 0, 0}, 2.5f, 2.5f, light, "light");  // faces -z
-    Camera c;
-    c.position = {0.0f, -6.0f, 3.0f};
-    c.forward = normalize(Vec3f(0.0f, 6.0f, -2.5f));
-    c.right = {1.0f, 0.0f, 0.0f};
-    c.up = normalize(cross(c.right, c.forward));
-    c.half_width = c.half_height = 0.6f;
-    s.camera = c;
-    s.world_color = Vec3f(0.2f);
-    s.finalize();
-    return s;
-}
 
 RenderSettings settings(bool adaptive, uint64_t seed) {
     RenderSettings rs;
@@ -66,7 +41,7 @@ double image_mean(const std::vector<float>& img) {
 }
 
 TEST(Adaptive, OffByDefaultConvergesNothing) {
-    const Scene scene = sphere_scene();
+    const Scene scene = test::sphere_on_floor_scene();
     RenderSettings rs = settings(false, 1);
     EXPECT_FALSE(RenderSettings{}.adaptive);
     Renderer r(scene, rs);
@@ -79,7 +54,7 @@ TEST(Adaptive, OffByDefaultConvergesNothing) {
 // Converged pixels stop at an even count >= the minimum and below spp; the
 // others get every pass; the stats count exactly the samples on the film.
 TEST(Adaptive, ConvergedPixelsStopAtEvenCountsAndStatsAddUp) {
-    const Scene scene = sphere_scene();
+    const Scene scene = test::sphere_on_floor_scene();
     Renderer ad(scene, settings(true, 5));
     ASSERT_TRUE(ad.render());
     Renderer full(scene, settings(false, 5));
@@ -146,7 +121,7 @@ TEST(Adaptive, AllConvergedEndsRenderAtMinimumSamples) {
 }
 
 TEST(Adaptive, DeterministicAcrossThreadCounts) {
-    const Scene scene = sphere_scene();
+    const Scene scene = test::sphere_on_floor_scene();
     RenderSettings a = settings(true, 9), b = settings(true, 9);
     a.threads = 1;
     b.threads = 2;
@@ -159,7 +134,7 @@ TEST(Adaptive, DeterministicAcrossThreadCounts) {
 // stopping early changes, with far less variance than two independent runs
 // (a stricter test for the same number of seeds).
 TEST(Adaptive, UnbiasedAgainstFullRenderOverSeeds) {
-    const Scene scene = sphere_scene();
+    const Scene scene = test::sphere_on_floor_scene();
     constexpr int kSeeds = 400;
     // A lit floor pixel, a pixel near the shadow, one on the sphere.
     const int px[3][2] = {{2, 13}, {9, 10}, {8, 6}};

@@ -16,10 +16,6 @@
 namespace coherent {
 namespace {
 
-using test::add_quad;
-using test::add_sphere;
-using test::diffuse_material;
-using test::emission_material;
 
 constexpr int kRes = 48;
 
@@ -34,27 +30,6 @@ bool load_shared(const std::string& name, Scene& scene) {
     return true;
 }
 
-// A diffuse sphere on a floor under a small area light: soft shadows and
-// indirect light, a second look besides the Cornell box.
-Scene sphere_scene() {
-    Scene s;
-    const uint32_t white = s.add_material(diffuse_material(Vec3f(0.7f)));
-    const uint32_t red = s.add_material(diffuse_material(Vec3f(0.8f, 0.2f, 0.1f)));
-    const uint32_t light = s.add_material(emission_material(Vec3f(4.0f)));
-    add_quad(s, {0, 0, 0}, {1, 0, 0}, {0, 1, 0}, 6.0f, 6.0f, white, "floor");
-    add_sphere(s, {0, 0, 1}, 1.0f, red, 16, 32);
-    add_quad(s, {1, 1, 4}, {0, 1, 0}, {1, 0, 0}, 2.5f, 2.5f, light, "light");  // faces -z
-    Camera c;
-    c.position = {0.0f, -6.0f, 3.0f};
-    c.forward = normalize(Vec3f(0.0f, 6.0f, -2.5f));
-    c.right = {1.0f, 0.0f, 0.0f};
-    c.up = normalize(cross(c.right, c.forward));
-    c.half_width = c.half_height = 0.6f;
-    s.camera = c;
-    s.world_color = Vec3f(0.2f);
-    s.finalize();
-    return s;
-}
 
 RenderSettings base_settings(int spp, SamplerType sampler, uint64_t seed) {
     RenderSettings rs;
@@ -148,12 +123,12 @@ TEST(ErrorEstimate, TracksTrueErrorCornellBox) {
 }
 
 TEST(ErrorEstimate, TracksTrueErrorSphereScene) {
-    SceneCase sc{"sphere_floor", sphere_scene(), {}, 0.0};
+    SceneCase sc{"sphere_floor", test::sphere_on_floor_scene(), {}, 0.0};
     check_estimate_tracks_truth(sc);
 }
 
 TEST(ErrorEstimate, UnknownBeforeTwoPassesAndFiniteErrorPass) {
-    const Scene scene = sphere_scene();
+    const Scene scene = test::sphere_on_floor_scene();
     Renderer r(scene, base_settings(1, SamplerType::Spt, 3));
     ASSERT_TRUE(r.render());
     EXPECT_LT(r.film().relative_rmse_estimate(), 0.0);  // no odd pass yet
@@ -175,7 +150,7 @@ struct PassLog {
 };
 
 TEST(ErrorEstimate, TargetErrorStopsAtFirstEvenPassBelowTarget) {
-    const Scene scene = sphere_scene();
+    const Scene scene = test::sphere_on_floor_scene();
     for (SamplerType st : {SamplerType::Spt, SamplerType::Cpt, SamplerType::Icpt}) {
         RenderSettings rs = base_settings(4096, st, 11);
         rs.target_error = 0.08;
@@ -201,7 +176,7 @@ TEST(ErrorEstimate, TargetErrorStopsAtFirstEvenPassBelowTarget) {
 }
 
 TEST(ErrorEstimate, TimeLimitOverrunsByAtMostOnePass) {
-    const Scene scene = sphere_scene();
+    const Scene scene = test::sphere_on_floor_scene();
     RenderSettings rs = base_settings(1 << 20, SamplerType::Spt, 5);
     rs.time_limit = 0.3;
     Renderer r(scene, rs);
@@ -223,7 +198,7 @@ TEST(ErrorEstimate, TimeLimitOverrunsByAtMostOnePass) {
 }
 
 TEST(ErrorEstimate, NoStoppingRuleRendersAllSamples) {
-    const Scene scene = sphere_scene();
+    const Scene scene = test::sphere_on_floor_scene();
     Renderer r(scene, base_settings(6, SamplerType::Cpt, 2));
     ASSERT_TRUE(r.render());
     EXPECT_EQ(r.stats().spp, 6);

@@ -135,4 +135,27 @@ inline std::vector<float> render_combined(const Scene& scene, const RenderSettin
     return r.film().resolve(PassType::Combined);
 }
 
+// A diffuse sphere on a floor under a small area light and a dim world: a
+// smooth lit floor next to soft shadows, the sphere's rim and indirect light.
+// Used where a second scene besides the Cornell box is wanted.
+inline Scene sphere_on_floor_scene() {
+    Scene s;
+    const uint32_t white = s.add_material(diffuse_material(Vec3f(0.7f)));
+    const uint32_t red = s.add_material(diffuse_material(Vec3f(0.8f, 0.2f, 0.1f)));
+    const uint32_t light = s.add_material(emission_material(Vec3f(4.0f)));
+    add_quad(s, {0, 0, 0}, {1, 0, 0}, {0, 1, 0}, 6.0f, 6.0f, white, "floor");
+    add_sphere(s, {0, 0, 1}, 1.0f, red, 16, 32);
+    add_quad(s, {1, 1, 4}, {0, 1, 0}, {1, 0, 0}, 2.5f, 2.5f, light, "light");  // faces -z
+    Camera c;
+    c.position = {0.0f, -6.0f, 3.0f};
+    c.forward = normalize(Vec3f(0.0f, 6.0f, -2.5f));
+    c.right = {1.0f, 0.0f, 0.0f};
+    c.up = normalize(cross(c.right, c.forward));
+    c.half_width = c.half_height = 0.6f;
+    s.camera = c;
+    s.world_color = Vec3f(0.2f);
+    s.finalize();
+    return s;
+}
+
 }  // namespace coherent::test
