@@ -113,13 +113,6 @@ def border_pixels(render, width, height):
     return (x0, height - yb1, x1, height - yb0)
 
 
-def render_threads(scene):
-    threads = scene.coherent.threads
-    if threads == 0 and scene.render.threads_mode == "FIXED":
-        threads = scene.render.threads
-    return threads
-
-
 class CoherentRenderEngine(bpy.types.RenderEngine):
     bl_idname = "COHERENT"
     bl_label = "Coherent"
@@ -226,12 +219,9 @@ class CoherentRenderEngine(bpy.types.RenderEngine):
         build_start = time.perf_counter()
         renderer = native.Renderer(
             nscene, width=width, height=height, spp=props.samples,
-            seed=props.seed_for_frame(scene.frame_current), threads=render_threads(scene),
-            max_bounces=props.max_bounces, diffuse_bounces=props.diffuse_bounces,
-            glossy_bounces=props.glossy_bounces, transmission_bounces=props.transmission_bounces,
-            transparent=render.film_transparent, border=border, tile_size=props.tile_size,
+            seed=props.seed_for_frame(scene.frame_current), border=border,
             progressive_display=False, target_error=props.target_error, time_limit=props.time_limit,
-            **props.sampler_kwargs())
+            **props.renderer_kwargs(scene))
         build_seconds = time.perf_counter() - build_start
         self._renderer = renderer
 

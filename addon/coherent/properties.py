@@ -81,13 +81,20 @@ class CoherentRenderSettings(bpy.types.PropertyGroup):
         name="Tile Size", description="Edge length in pixels of the image tiles threads work on",
         default=32, min=4, max=1024)
 
-    def sampler_kwargs(self):
-        """Keyword arguments of _coherent.Renderer for the sampler settings.
+    def renderer_kwargs(self, scene):
+        """Keyword arguments of _coherent.Renderer that the final render and
+        the viewport share: light paths, threads, tiles, film and sampler.
 
-        Front ends add progressive_display=True where passes are shown as they
-        finish (the viewport), which makes AUTO pick ICPT.
+        Front ends add size, samples, seed and progressive_display (True in
+        the viewport, which makes AUTO pick ICPT).
         """
-        return {"sampler": self.sampler.lower(), "packet": (int(self.packet_size[0]), int(self.packet_size[1]))}
+        threads = self.threads
+        if threads == 0 and scene.render.threads_mode == "FIXED":
+            threads = scene.render.threads
+        return dict(threads=threads, max_bounces=self.max_bounces, diffuse_bounces=self.diffuse_bounces,
+                    glossy_bounces=self.glossy_bounces, transmission_bounces=self.transmission_bounces,
+                    transparent=scene.render.film_transparent, tile_size=self.tile_size,
+                    sampler=self.sampler.lower(), packet=(int(self.packet_size[0]), int(self.packet_size[1])))
 
     def seed_for_frame(self, frame):
         """The sampler seed for `frame`: constant unless use_animated_seed."""

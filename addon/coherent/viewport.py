@@ -402,18 +402,13 @@ class ViewportSession:
 
     def _start_stage(self, scene):
         from . import native_module
-        from .engine import render_threads
-
         native = native_module()
         if self.renderer is not None:
             self.stop_renderer_only()
         props = scene.coherent
         divisor, samples = self.stages[self.stage]
         kwargs = dict(width=max(1, math.ceil(self.width / divisor)), height=max(1, math.ceil(self.height / divisor)),
-                      spp=samples, seed=props.seed, threads=render_threads(scene), max_bounces=props.max_bounces,
-                      diffuse_bounces=props.diffuse_bounces, glossy_bounces=props.glossy_bounces,
-                      transmission_bounces=props.transmission_bounces, transparent=scene.render.film_transparent,
-                      tile_size=props.tile_size, progressive_display=True, **props.sampler_kwargs())
+                      spp=samples, seed=props.seed, progressive_display=True, **props.renderer_kwargs(scene))
         if not self.scene.has_bvh:
             # Built here rather than by the Renderer to choose its quality;
             # every later Renderer over these triangles reuses it.
