@@ -16,6 +16,7 @@
 #include "../core/vec.h"
 #include "aligned_allocator.h"
 #include "bvh_layout.h"
+#include "ray_packet.h"
 
 namespace coherent {
 
@@ -66,6 +67,10 @@ struct BvhBuildOptions {
     // visits; Ylitie et al. 2017), false = the greedy one (open the largest
     // child until eight). Both give the same hits; kept for comparison.
     bool optimal_collapse = true;
+    // Width of the tree single rays traverse: 2 (the binary nodes), 4 or 8
+    // (the binary tree collapsed into 4- or 8-wide nodes). Same hits for
+    // every width; a setting so the widths can be measured side by side.
+    int width = 8;
 };
 
 struct BvhBuildStats {
@@ -116,6 +121,13 @@ public:
     // Any hit with t in (ray.tmin, ray.tmax] (shadow rays).
     bool occluded(const Ray& ray, TraversalCounters* counters = nullptr) const;
 
+    // Packets (traverse_packet.cpp, ray_packet.h): the packet's active rays,
+    // traced together, with exactly the per-ray results of intersect() and
+    // occluded() above. intersect writes hits.* of the active rays that hit;
+    // occluded sets the bits of the active rays that are occluded.
+    void intersect(const RayPacket& packet, HitPacket& hits, PacketCounters* counters = nullptr) const;
+    void occluded(const RayPacket& packet, OcclusionMask& occluded, PacketCounters* counters = nullptr) const;
+
     const std::vector<BvhNode>& nodes() const { return nodes_; }
     const BvhBuildStats& build_stats() const { return stats_; }
     BBox bounds() const { return nodes_.empty() ? BBox{} : nodes_[0].box; }
@@ -143,6 +155,10 @@ private:
     // kEmptyChild for unused slots): lets refit() refresh the wide boxes
     // without redoing the collapse.
     std::vector<uint32_t> wide_binary_;
+    // First TrianglePack4 of each binary leaf, indexed by binary node (0 for
+    // interior nodes): kernels that walk the binary tree (packets) test the
+    // same packs as the wide one.
+    std::vector<uint32_t> binary_pack_;
     BvhBuildStats stats_;
 };
 

@@ -236,6 +236,7 @@ void Bvh::build_traversal_layout(const Vec3f* verts, bool optimal_collapse) {
         }
     }
     wide_binary_.resize(wide_.size() * kWideWidth, kEmptyChild);  // the last nodes' slots
+    binary_pack_ = std::move(pack_of);
     stats_.wide_nodes = wide_.size();
     stats_.wide_node_visit_estimate = visit_estimate;
 }

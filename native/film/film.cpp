@@ -16,6 +16,8 @@ const PassInfo& pass_info(PassType t) {
         {PassType::Depth, "Depth", 1, "Z"},
         {PassType::Normal, "Normal", 3, "XYZ"},
         {PassType::Error, "Error", 1, "X"},
+        {PassType::NodeVisits, "BVH Visits", 1, "X"},
+        {PassType::SimdUtilisation, "SIMD Utilisation", 1, "X"},
     };
     return infos[size_t(t)];
 }
@@ -31,6 +33,20 @@ void Film::clear() {
     hits_.assign(n, 0);
     rgb_odd_.assign(3 * n, 0.0f);
     count_odd_.assign(n, 0);
+    heat_.clear();
+    heat_count_.clear();
+}
+
+void Film::add_heatmap_sample(int x, int y, float node_visits, float simd_utilisation) {
+    const size_t n = size_t(width_) * size_t(height_);
+    if (heat_.empty()) {
+        heat_.assign(2 * n, 0.0f);
+        heat_count_.assign(n, 0);
+    }
+    const size_t i = size_t(y) * size_t(width_) + size_t(x);
+    heat_[2 * i + 0] += node_visits;
+    heat_[2 * i + 1] += simd_utilisation;
+    ++heat_count_[i];
 }
 
 void Film::add_sample(int x, int y, const Vec3f& radiance, float alpha, float depth, const Vec3f& normal,
@@ -126,6 +142,13 @@ void Film::resolve_into(PassType t, float* out) const {
             case PassType::Error:
                 out[i] = pixel_error(int(i % size_t(width_)), int(i / size_t(width_)));
                 break;
+            case PassType::NodeVisits:
+            case PassType::SimdUtilisation: {
+                // Zero where no heatmap sample was taken (heatmaps off).
+                const int c = t == PassType::NodeVisits ? 0 : 1;
+                out[i] = heat_.empty() || heat_count_[i] == 0 ? 0.0f : heat_[2 * i + c] / float(heat_count_[i]);
+                break;
+            }
         }
     }
 }

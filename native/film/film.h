@@ -11,7 +11,11 @@
 
 namespace coherent {
 
-enum class PassType : uint8_t { Combined, Depth, Normal, Error };
+// NodeVisits and SimdUtilisation are diagnostic heatmap passes
+// (RenderSettings::heatmaps): BVH node visits per camera sample (all rays of
+// the sample's path), and the mean SIMD lane utilisation, in [0, 1], of the
+// packets that traced the pixel's rays (1 for single rays, which waste no lane).
+enum class PassType : uint8_t { Combined, Depth, Normal, Error, NodeVisits, SimdUtilisation };
 
 struct PassInfo {
     PassType type;
@@ -72,6 +76,11 @@ public:
     void resolve_into(PassType t, float* out) const;  // out has width*height*channels floats
     uint32_t samples_at(int x, int y) const { return count_[size_t(y) * width_ + x]; }
 
+    // Heatmaps (allocated on first use): adds one sample's node visits and
+    // SIMD utilisation to pixel (x, y); resolved as means over these samples.
+    void add_heatmap_sample(int x, int y, float node_visits, float simd_utilisation);
+    bool has_heatmaps() const { return !heat_.empty(); }
+
     void clear();
 
 private:
@@ -83,6 +92,8 @@ private:
     std::vector<uint32_t> hits_;  // samples that hit geometry
     std::vector<float> rgb_odd_;  // 3 per pixel, sums over odd passes only
     std::vector<uint32_t> count_odd_;  // odd-pass samples per pixel
+    std::vector<float> heat_;     // 2 per pixel: sums of node visits, SIMD utilisation
+    std::vector<uint32_t> heat_count_;  // heatmap samples per pixel
 };
 
 }  // namespace coherent

@@ -4,6 +4,7 @@
 #include <cstdint>
 
 #include "../sample/sampler_type.h"
+#include "render_modes.h"
 
 namespace coherent {
 
@@ -69,6 +70,22 @@ struct RenderSettings {
     // image (paper eq. 3); see SequenceScope in sample/sampler_type.h.
     SequenceScope sequence_scope = SequenceScope::Packet;
     bool progressive_display = false;   // a front end shows passes as they finish
+
+    // Light transport and tracing (render_modes.h).
+    Integrator integrator = Integrator::PathTrace;
+    Traversal traversal = Traversal::Single;
+    PacketAssembly assembly = PacketAssembly::RayType;
+    int bvh_width = 8;                  // 2, 4 or 8 (single-ray and stream traversal)
+    ReorderMode reorder = ReorderMode::None;  // wavefront only
+    int wave_size = 1 << 16;            // wavefront: paths in flight per wave (bounds memory)
+    // Ambient occlusion: rays per camera sample, and their length
+    // (<= 0: a tenth of the scene's bounding-box diagonal).
+    int ao_samples = 16;
+    float ao_distance = 0.0f;
+    // Diagnostic heatmap passes (Film: NodeVisits, SimdUtilisation): BVH node
+    // visits per camera sample and the SIMD lane utilisation of the packets
+    // that traced the pixel's rays. Off by default: they cost counters.
+    bool heatmaps = false;
 
     bool transparent_film = false;      // Film > Transparent: world seen directly gives alpha 0
     bool force_all_features = false;    // ignore SceneFeatures specialisation (benchmarks)

@@ -12,9 +12,30 @@ namespace coherent {
 enum class RayType : uint8_t { Camera, Shadow, Diffuse, Glossy, Reflection, Refraction, Count };
 const char* ray_type_name(RayType t);  // "camera", "shadow", "diffuse", ...
 
+// Work of one bounce depth (0 = camera rays and their shadow rays, 1 = the
+// first bounce and its shadow rays, ...; the last entry collects every
+// deeper bounce), the packets paper's per-bounce metrics.
+struct BounceStats {
+    uint64_t rays = 0;            // rays traced (all types, shadow rays included)
+    uint64_t node_visits = 0;     // single ray: node visits; packets: (packet, node) visits
+    uint64_t box_tests = 0;       // ray-box tests (active lanes; see ray_packet.h)
+    uint64_t triangle_tests = 0;  // ray-triangle tests
+    // SIMD lanes of packet box / triangle tests and how many held an active
+    // ray (0 for single-ray traversal, which has no packets).
+    uint64_t box_lanes = 0, box_lanes_active = 0;
+    uint64_t triangle_lanes = 0, triangle_lanes_active = 0;
+    BounceStats& operator+=(const BounceStats& o);
+};
+constexpr int kStatBounces = 8;
+
 struct RenderStats {
     std::array<uint64_t, size_t(RayType::Count)> rays{};
     TraversalCounters traversal;
+    std::array<BounceStats, kStatBounces> bounces{};
+    // Seconds spent in tracing and in reordering (wavefront; summed over
+    // threads, so CPU seconds). 0 where a mode does not separate them.
+    double trace_seconds = 0.0;
+    double sort_seconds = 0.0;
     uint64_t nonfinite_samples = 0;  // samples whose value was NaN/Inf, discarded
     uint64_t samples = 0;            // pixel samples finished
     int spp = 0;                     // sample passes actually completed (samples per pixel taken)
