@@ -37,12 +37,14 @@ void Film::clear() {
     heat_count_.clear();
 }
 
-void Film::add_heatmap_sample(int x, int y, float node_visits, float simd_utilisation) {
+void Film::enable_heatmaps() {
     const size_t n = size_t(width_) * size_t(height_);
-    if (heat_.empty()) {
-        heat_.assign(2 * n, 0.0f);
-        heat_count_.assign(n, 0);
-    }
+    if (heat_.size() == 2 * n) return;
+    heat_.assign(2 * n, 0.0f);
+    heat_count_.assign(n, 0);
+}
+
+void Film::add_heatmap_sample(int x, int y, float node_visits, float simd_utilisation) {
     const size_t i = size_t(y) * size_t(width_) + size_t(x);
     heat_[2 * i + 0] += node_visits;
     heat_[2 * i + 1] += simd_utilisation;

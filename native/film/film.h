@@ -76,8 +76,11 @@ public:
     void resolve_into(PassType t, float* out) const;  // out has width*height*channels floats
     uint32_t samples_at(int x, int y) const { return count_[size_t(y) * width_ + x]; }
 
-    // Heatmaps (allocated on first use): adds one sample's node visits and
-    // SIMD utilisation to pixel (x, y); resolved as means over these samples.
+    // Heatmaps: enable_heatmaps() allocates them (before rendering: adding
+    // is not synchronised beyond distinct pixels); add_heatmap_sample() adds
+    // one sample's node visits and SIMD utilisation to pixel (x, y), resolved
+    // as means over these samples. Precondition of adding: enabled.
+    void enable_heatmaps();
     void add_heatmap_sample(int x, int y, float node_visits, float simd_utilisation);
     bool has_heatmaps() const { return !heat_.empty(); }
 

@@ -13,10 +13,12 @@
 #include <tbb/task_arena.h>
 
 #include <chrono>
+#include <memory>
 #include <thread>
 
 #include "../sample/image_sampler.h"
 #include "light_sampling.h"
+#include "packet_paths.h"
 #include "path_tracer.h"
 
 namespace coherent {
@@ -35,45 +37,101 @@ struct TileJob {
     const std::atomic<bool>* cancelled;
     const uint8_t* converged;  // per film pixel, row stride film width; null = none skipped
     int film_width;
+    bool heatmaps;
+    int packet_width, packet_height;  // packet traversal: pixels per packet
+    PacketAssembly assembly;
+
+    bool skip(int x, int y) const {
+        // Adaptive sampling: a converged pixel keeps its mean and takes no more samples.
+        return converged && converged[size_t(y - border_y0) * size_t(film_width) + size_t(x - border_x0)];
+    }
+    // Adds a finished sample to the film. No NaN/Inf ever reaches the film:
+    // a non-finite sample is discarded whole and counted.
+    void add(int x, int y, const PathOutput& o, float node_visits, float simd_utilisation, RenderStats& st) const {
+        if (!is_finite(o.radiance) || !std::isfinite(o.alpha) || std::isnan(o.depth) || !is_finite(o.normal)) {
+            ++st.nonfinite_samples;
+            return;
+        }
+        film->add_sample(x - border_x0, y - border_y0, o.radiance, o.alpha, o.depth, o.normal, sample);
+        if (heatmaps) film->add_heatmap_sample(x - border_x0, y - border_y0, node_visits, simd_utilisation);
+        ++st.samples;
+    }
 };
 
-// Renders one sample for every pixel of one tile; returns early on cancel.
+// Single rays: each pixel's path depth-first (path_tracer.h); returns early on cancel.
 template <bool kGlass, bool kDepthOfField, bool kLights>
 void render_tile(const TileJob& job, RenderStats& st) {
     for (int y = job.y0; y < job.y1; ++y) {
         if (job.cancelled->load(std::memory_order_relaxed)) return;
         for (int x = job.x0; x < job.x1; ++x) {
-            // Adaptive sampling: a converged pixel keeps its mean and takes no more samples.
-            if (job.converged &&
-                job.converged[size_t(y - job.border_y0) * size_t(job.film_width) + size_t(x - job.border_x0)])
-                continue;
+            if (job.skip(x, y)) continue;
             const PathSampler<ImageSampler> ps(*job.sampler, uint32_t(x), uint32_t(y), job.sample);
-            const PathOutput o = trace_path<ImageSampler, kGlass, kDepthOfField, kLights>(*job.ctx, ps, x, y, st);
-            // No NaN/Inf ever reaches the film: discard the whole sample and count it.
-            if (!is_finite(o.radiance) || !std::isfinite(o.alpha) || std::isnan(o.depth) || !is_finite(o.normal)) {
-                ++st.nonfinite_samples;
-                continue;
-            }
-            job.film->add_sample(x - job.border_x0, y - job.border_y0, o.radiance, o.alpha, o.depth, o.normal,
-                                 job.sample);
-            ++st.samples;
+            uint32_t visits = 0;
+            const PathOutput o = trace_path<ImageSampler, kGlass, kDepthOfField, kLights>(
+                *job.ctx, ps, x, y, st, job.heatmaps ? &visits : nullptr);
+            // Single rays use every lane they have: utilisation 1.
+            job.add(x, y, o, float(visits), 1.0f, st);
         }
+    }
+}
+
+// Packets: the tile's paths bounce by bounce, rays gathered per pixel packet
+// (packet_paths.h).
+template <bool kGlass, bool kDepthOfField, bool kLights>
+void render_tile_packets(const TileJob& job, RenderStats& st) {
+    if (job.cancelled->load(std::memory_order_relaxed)) return;
+    PathBatch<ImageSampler> batch;
+    batch.clear();
+    for (int by = job.y0; by < job.y1; by += job.packet_height)
+        for (int bx = job.x0; bx < job.x1; bx += job.packet_width) {
+            for (int y = by; y < std::min(by + job.packet_height, job.y1); ++y)
+                for (int x = bx; x < std::min(bx + job.packet_width, job.x1); ++x) {
+                    if (job.skip(x, y)) continue;
+                    batch.samplers.emplace_back(*job.sampler, uint32_t(x), uint32_t(y), job.sample);
+                    batch.states.emplace_back();
+                    start_path<ImageSampler, kDepthOfField>(*job.ctx, batch.samplers.back(), x, y, batch.states.back());
+                    batch.px.push_back(x);
+                    batch.py.push_back(y);
+                }
+            if (int(batch.size()) > batch.packet_begin.back()) batch.packet_begin.push_back(int(batch.size()));
+        }
+    if (job.heatmaps) {
+        batch.node_visits.assign(batch.size(), 0);
+        batch.lanes.assign(batch.size(), 0);
+        batch.lanes_active.assign(batch.size(), 0);
+    }
+    auto scratch = std::make_unique<packet_detail::PacketScratch>();
+    trace_batch_packets<ImageSampler, kGlass, kLights>(*job.ctx, job.assembly, batch, *scratch, st);
+    for (size_t p = 0; p < batch.size(); ++p) {
+        const float visits = job.heatmaps ? float(batch.node_visits[p]) : 0.0f;
+        const float util = job.heatmaps && batch.lanes[p] ? float(double(batch.lanes_active[p]) / double(batch.lanes[p]))
+                                                          : 1.0f;
+        job.add(batch.px[p], batch.py[p], batch.states[p].out, visits, util, st);
     }
 }
 
 using TileFn = void (*)(const TileJob&, RenderStats&);
 
-template <bool G, bool D, bool L>
-constexpr TileFn tile_fn() { return &render_tile<G, D, L>; }
+template <bool kPackets, bool G, bool D, bool L>
+constexpr TileFn tile_fn() {
+    if constexpr (kPackets) return &render_tile_packets<G, D, L>;
+    else return &render_tile<G, D, L>;
+}
 
-TileFn select_kernel(const SceneFeatures& f, bool has_lights) {
+template <bool kPackets>
+TileFn select_kernel_for(bool glass, bool dof, bool lights) {
     static constexpr TileFn table[2][2][2] = {
-        {{tile_fn<false, false, false>(), tile_fn<false, false, true>()},
-         {tile_fn<false, true, false>(), tile_fn<false, true, true>()}},
-        {{tile_fn<true, false, false>(), tile_fn<true, false, true>()},
-         {tile_fn<true, true, false>(), tile_fn<true, true, true>()}},
+        {{tile_fn<kPackets, false, false, false>(), tile_fn<kPackets, false, false, true>()},
+         {tile_fn<kPackets, false, true, false>(), tile_fn<kPackets, false, true, true>()}},
+        {{tile_fn<kPackets, true, false, false>(), tile_fn<kPackets, true, false, true>()},
+         {tile_fn<kPackets, true, true, false>(), tile_fn<kPackets, true, true, true>()}},
     };
-    return table[f.glass ? 1 : 0][f.depth_of_field ? 1 : 0][has_lights ? 1 : 0];
+    return table[glass ? 1 : 0][dof ? 1 : 0][lights ? 1 : 0];
+}
+
+TileFn select_kernel(Traversal traversal, bool glass, bool dof, bool lights) {
+    return traversal == Traversal::Packet ? select_kernel_for<true>(glass, dof, lights)
+                                          : select_kernel_for<false>(glass, dof, lights);
 }
 
 }  // namespace
@@ -91,13 +149,22 @@ Renderer::Renderer(const Scene& scene, const RenderSettings& settings, std::shar
     settings_.border_x0 = std::clamp(settings_.border_x0, 0, settings_.border_x1);
     settings_.border_y0 = std::clamp(settings_.border_y0, 0, settings_.border_y1);
     settings_.tile_size = std::max(settings_.tile_size, 1);
+    // A packet holds at most kMaxPacketRays rays: 16 x 16 pixels.
+    settings_.packet_width = std::clamp(settings_.packet_width, 1, 16);
+    settings_.packet_height = std::clamp(settings_.packet_height, 1, 16);
+    settings_.ao_samples = std::clamp(settings_.ao_samples, 1, 1024);
+    if (settings_.bvh_width != 2 && settings_.bvh_width != 4 && settings_.bvh_width != 8)
+        throw std::invalid_argument("bvh_width must be 2, 4 or 8 (got " + std::to_string(settings_.bvh_width) + ")");
     if (!bvh) {  // the usual case: build over the scene's triangles
         auto built = std::make_shared<Bvh>();
-        built->build(scene_);
+        BvhBuildOptions options;
+        options.width = settings_.bvh_width;
+        built->build(scene_, options);
         bvh = std::move(built);
     }
     bvh_ = std::move(bvh);
     film_ = Film(settings_.border_width(), settings_.border_height());
+    if (settings_.heatmaps) film_.enable_heatmaps();
 }
 
 Renderer::~Renderer() = default;
@@ -105,7 +172,8 @@ Renderer::~Renderer() = default;
 bool Renderer::render(const ProgressCallback& progress) {
     const auto start = Clock::now();
     const LightSet lights(scene_);
-    const PathContext ctx{&scene_, bvh_.get(), &lights, &settings_};
+    PathContext ctx{&scene_, bvh_.get(), &lights, &settings_};
+    ctx.ao_distance = resolve_ao_distance(settings_, scene_);
     // The sampler's tables cover one pass (one sample over the image) and are
     // rebuilt per pass: a few KB, independent of resolution and spp.
     SamplerConfig sampler_config;
@@ -118,11 +186,20 @@ bool Renderer::render(const ProgressCallback& progress) {
     // Without any emitter no path can carry light: the kernel without NEE,
     // light hits and world MIS is exact. force_all_features keeps it on.
     const bool use_lights = settings_.force_all_features || (!lights.empty() && features_.any_light());
-    const TileFn kernel = select_kernel(features_, use_lights);
+    // Lens sampling only where the camera has depth of field and the
+    // integrator is one that models it (render_modes.h).
+    const bool dof = features_.depth_of_field && integrator_uses_lens(settings_.integrator);
+    const TileFn kernel = select_kernel(settings_.traversal, features_.glass, dof, use_lights);
 
     const int bw = settings_.border_width(), bh = settings_.border_height();
-    const int ts = settings_.tile_size;
-    const int tiles_x = (bw + ts - 1) / ts, tiles_y = (bh + ts - 1) / ts;
+    // Packet traversal: tiles hold whole packets (a multiple of the packet
+    // size, about tile_size pixels on a side), so no packet straddles tiles.
+    const bool packets = settings_.traversal == Traversal::Packet;
+    const int tw = packets ? settings_.packet_width * std::max(1, settings_.tile_size / settings_.packet_width)
+                           : settings_.tile_size;
+    const int th = packets ? settings_.packet_height * std::max(1, settings_.tile_size / settings_.packet_height)
+                           : settings_.tile_size;
+    const int tiles_x = (bw + tw - 1) / tw, tiles_y = (bh + th - 1) / th;
     const int tiles = tiles_x * tiles_y;
     const int spp = std::max(settings_.spp, 0);
 
@@ -167,16 +244,20 @@ bool Renderer::render(const ProgressCallback& progress) {
                     job.ctx = &ctx;
                     job.sampler = &sampler;
                     job.film = &film_;
-                    job.x0 = settings_.border_x0 + (t % tiles_x) * ts;
-                    job.y0 = settings_.border_y0 + (t / tiles_x) * ts;
-                    job.x1 = std::min(job.x0 + ts, settings_.border_x1);
-                    job.y1 = std::min(job.y0 + ts, settings_.border_y1);
+                    job.x0 = settings_.border_x0 + (t % tiles_x) * tw;
+                    job.y0 = settings_.border_y0 + (t / tiles_x) * th;
+                    job.x1 = std::min(job.x0 + tw, settings_.border_x1);
+                    job.y1 = std::min(job.y0 + th, settings_.border_y1);
                     job.border_x0 = settings_.border_x0;
                     job.border_y0 = settings_.border_y0;
                     job.sample = uint32_t(pass);
                     job.cancelled = &cancelled_;
                     job.converged = converged_.empty() ? nullptr : converged_.data();
                     job.film_width = bw;
+                    job.heatmaps = settings_.heatmaps;
+                    job.packet_width = settings_.packet_width;
+                    job.packet_height = settings_.packet_height;
+                    job.assembly = settings_.assembly;
                     kernel(job, st);
                     const int done = tiles_done.fetch_add(1, std::memory_order_relaxed) + 1;
                     // Periodic progress within a long pass, always on the calling

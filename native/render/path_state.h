@@ -1,0 +1,329 @@
+// One camera sample's path as an explicit state machine, so that any driver
+// can trace its rays however it likes: one path at a time depth-first
+// (path_tracer.h), many paths bounce by bounce with their rays gathered into
+// SIMD packets or streams (packet_paths.h), or whole waves with reordering
+// (wavefront.h). The state machine owns every shading decision; drivers only
+// trace rays. Because each step is a pure function of the state, the hit and
+// the path's own random numbers, every driver computes bit-identical
+// radiance for the same rays and samples: traversal is a speed choice, never
+// a different image.
+//
+// A path alternates two kinds of rays:
+//   extension ray (state.ray): traced with Bvh::intersect; the driver calls
+//     shade_hit() with the result. shade_hit() adds emission and may queue
+//     one shadow ray (next-event estimation) and set up the next extension
+//     ray, or end the path (state.alive = false).
+//   shadow ray (state.shadow, when state.has_shadow): traced with
+//     Bvh::occluded; the driver calls resolve_shadow() with the result
+//     BEFORE tracing the path's next extension ray. (The radiance sum then
+//     adds contributions in the same order as a depth-first loop.)
+// Ambient occlusion (Integrator::AmbientOcclusion) instead queues
+// ao_samples occlusion rays at the first hit (ao_ray()) and ends.
+//
+// Integrators differ only in which BSDF samples continue the path
+// (continue_rule below); light sampling, MIS and bounce limits are shared.
+#pragma once
+
+#include <cmath>
+#include <limits>
+
+#include "../accel/bvh.h"
+#include "../sample/sampler.h"
+#include "../scene/scene.h"
+#include "bsdf.h"
+#include "camera_rays.h"
+#include "light_sampling.h"
+#include "ray_offset.h"
+#include "render_modes.h"
+#include "settings.h"
+#include "stats.h"
+
+namespace coherent {
+
+// Spawned rays start just past the surface (ray_offset.h); t = 0 can still
+// come out of the intersector when the offset is a single denormal (a plane
+// through the origin), so hits at t < FLT_MIN are excluded. No legitimate hit
+// is that close.
+constexpr float kSpawnTmin = std::numeric_limits<float>::min();
+
+struct PathOutput {
+    Vec3f radiance{0.0f};
+    float alpha = 1.0f;
+    float depth = kInf;  // view-axis distance of the first hit, inf if none
+    Vec3f normal{0.0f};  // shading normal at the first hit (facing the camera)
+};
+
+struct PathContext {
+    const Scene* scene;
+    const Bvh* bvh;
+    const LightSet* lights;
+    const RenderSettings* settings;
+    float ao_distance = 0.0f;  // resolved AO ray length (Integrator::AmbientOcclusion)
+};
+
+// Cycles' sample clamping: a contribution whose light left path vertex
+// `origin` (-1: seen by the camera, 0: first hit) is limited by clamp_direct
+// when origin <= 0, else by clamp_indirect. Limits <= 0 disable clamping.
+inline Vec3f clamp_contribution(const Vec3f& c, int origin, const RenderSettings& rs) {
+    const float limit = origin <= 0 ? rs.clamp_direct : rs.clamp_indirect;
+    if (!(limit > 0.0f)) return c;
+    const float m = max_component(c);
+    return m > limit ? c * (limit / m) : c;
+}
+
+struct PathState {
+    Ray ray;                         // the next extension ray (valid while alive)
+    RayType type = RayType::Camera;  // its type
+    bool alive = true;               // an extension ray is waiting to be traced
+    bool has_shadow = false;         // a shadow ray is waiting to be traced
+    Ray shadow;
+    Vec3f shadow_contribution{0.0f};  // added if the shadow ray is unoccluded
+
+    Vec3f throughput{1.0f};
+    int bounce = 0, diffuse_bounce = 0, glossy_bounce = 0, transmission_bounce = 0;
+    float prev_pdf = 0.0f;  // BSDF pdf of the current ray's direction; 0 = camera or delta
+    Vec3f prev_n{0.0f, 0.0f, 1.0f};
+    bool prev_transmissive = false;
+    bool last_ray = false;  // a bounce limit was reached: collect emission, then stop
+    // Ambient occlusion: occlusion rays queued at the first hit (ao_ray(i)),
+    // and the frame they are drawn in.
+    int ao_rays = 0;
+    Vec3f ao_origin{0.0f}, ao_normal{0.0f};
+
+    PathOutput out;
+};
+
+// Integrators as continuation rules (render_modes.h): after a BSDF sample,
+// whether the sampled ray may start a new bounce. A ray that may not is still
+// traced once to collect its (MIS-weighted) emission, as for bounce limits,
+// so the direct lighting estimate keeps both of its MIS halves.
+inline bool may_continue(Integrator integrator, const BsdfSample& bs) {
+    switch (integrator) {
+        case Integrator::PathTrace: return true;
+        case Integrator::Distribution: return bs.type != RayType::Diffuse;
+        case Integrator::Whitted: return bs.delta;
+        case Integrator::RayCast: return false;
+        case Integrator::AmbientOcclusion: return false;
+    }
+    return true;
+}
+
+// Whether an integrator samples the lens: Whitted ray tracing and ray
+// casting are pinhole methods (one exact ray per pixel sample), the others
+// follow the camera's depth of field.
+constexpr bool integrator_uses_lens(Integrator i) {
+    return i == Integrator::PathTrace || i == Integrator::Distribution || i == Integrator::AmbientOcclusion;
+}
+
+// The camera ray of pixel (px, py)'s sample.
+template <class Sampler, bool kDepthOfField>
+inline void start_path(const PathContext& ctx, const PathSampler<Sampler>& ps, int px, int py, PathState& s) {
+    using D = PathDims;
+    const RenderSettings& rs = *ctx.settings;
+    const float fx = float(px) + ps.get(D::kPixelX);
+    const float fy = float(py) + ps.get(D::kPixelY);
+    float lens_u = 0.5f, lens_v = 0.5f;
+    if constexpr (kDepthOfField) {
+        lens_u = ps.get(D::kLensU);
+        lens_v = ps.get(D::kLensV);
+    }
+    s = PathState{};
+    s.ray = generate_camera_ray<kDepthOfField>(ctx.scene->camera, fx, fy, rs.width, rs.height, lens_u, lens_v).ray;
+    s.type = RayType::Camera;
+}
+
+// The i-th ambient occlusion ray (i < s.ao_rays): cosine-distributed about
+// the geometric normal facing the camera, ao_distance long. Dimensions: the
+// i-th AO ray reads bounce block i's BSDF dimensions.
+template <class Sampler>
+inline Ray ao_ray(const PathContext& ctx, const PathSampler<Sampler>& ps, const PathState& s, int i) {
+    using D = PathDims;
+    const Vec3f local = sample_cosine_hemisphere(ps.get(D::bounce(i, D::kBsdfU)), ps.get(D::bounce(i, D::kBsdfV)));
+    Vec3f t, b;
+    make_basis(s.ao_normal, t, b);
+    Ray r;
+    r.d = t * local.x + b * local.y + s.ao_normal * local.z;
+    r.o = s.ao_origin;  // already offset for this side of the surface
+    r.tmin = kSpawnTmin;
+    r.tmax = ctx.ao_distance;
+    return r;
+}
+
+// Shades the result of tracing s.ray (found/hit as from Bvh::intersect).
+// Precondition: s.alive and !s.has_shadow. Afterwards the path may have a
+// shadow ray queued even when it ended (!s.alive): drivers resolve it either way.
+template <class Sampler, bool kGlass, bool kLights>
+inline void shade_hit(const PathContext& ctx, const PathSampler<Sampler>& ps, PathState& s, bool found,
+                      const Hit& hit) {
+    const Scene& scene = *ctx.scene;
+    const RenderSettings& rs = *ctx.settings;
+    const LightSet& lights = *ctx.lights;
+    using D = PathDims;
+    s.alive = false;  // until a next ray is set up below
+
+    // Analytic lights are invisible to camera rays (measured in Cycles) and
+    // transparent: every one in front of the surface adds its emission.
+    if constexpr (kLights) {
+        if (s.bounce > 0)
+            s.out.radiance += clamp_contribution(
+                s.throughput * lights.hit_lights(s.ray.o, s.ray.d, found ? hit.t : s.ray.tmax, s.prev_pdf),
+                s.bounce - 1, rs);
+    }
+
+    if (!found) {
+        if (s.bounce == 0) {
+            if (rs.integrator == Integrator::AmbientOcclusion) {
+                // Nothing occludes a ray that leaves the scene.
+                if (rs.transparent_film) s.out.alpha = 0.0f;
+                else s.out.radiance += Vec3f(1.0f);
+            } else if (rs.transparent_film) {
+                s.out.alpha = 0.0f;
+            } else {
+                s.out.radiance += clamp_contribution(lights.world_color(), -1, rs);
+            }
+        } else if constexpr (kLights) {
+            s.out.radiance += clamp_contribution(
+                s.throughput * lights.escaped(s.ray.d, s.prev_n, s.prev_transmissive, s.prev_pdf), s.bounce - 1, rs);
+        }
+        return;
+    }
+
+    const uint32_t tri = hit.prim;
+    const Vec3f* v = &scene.vertices[3 * size_t(tri)];
+    Vec3f p_error;
+    const Vec3f p = triangle_point(v[0], v[1], v[2], hit.u, hit.v, p_error);
+    const Vec3f wo = -s.ray.d;
+    const Vec3f ng = scene.geometric_normals[tri];
+    const bool front = dot(wo, ng) > 0.0f;
+    const Vec3f ng_f = front ? ng : -ng;
+    Vec3f n = ng_f;
+    if (scene.has_normals[tri]) {
+        const Vec3f* sn = &scene.normals[3 * size_t(tri)];
+        const Vec3f interp = sn[0] * (1.0f - hit.u - hit.v) + sn[1] * hit.u + sn[2] * hit.v;
+        const float len = length(interp);
+        if (len > 0.0f && std::isfinite(len)) {
+            const Vec3f ns = (front ? interp : -interp) / len;
+            // A shading normal facing away from the viewer cannot shade it.
+            if (dot(ns, wo) > 1e-4f) n = ns;
+        }
+    }
+    if (s.bounce == 0) {
+        s.out.depth = dot(p - scene.camera.position, scene.camera.forward);
+        s.out.normal = n;
+    }
+
+    if (rs.integrator == Integrator::AmbientOcclusion) {
+        // The AO rays leave the side the camera sees; the driver traces them
+        // and adds 1 / ao_samples per unoccluded ray (resolve_ao).
+        s.ao_rays = rs.ao_samples;
+        s.ao_normal = ng_f;
+        s.ao_origin = offset_ray_origin(p, p_error, ng_f, ng_f);
+        return;
+    }
+
+    const Material& mat = scene.materials[scene.material_of[tri]];
+    if (mat.is_emissive()) {
+        float w = 1.0f;
+        if constexpr (kLights) {
+            if (s.prev_pdf > 0.0f) w = power_heuristic(s.prev_pdf, lights.triangle_pdf(tri, s.ray.o, p, ng));
+        }
+        s.out.radiance += clamp_contribution(s.throughput * mat.emission * w, s.bounce - 1, rs);
+    }
+    if (s.last_ray) return;
+
+    const Bsdf bsdf(mat, n, ng_f, wo, front, kGlass);
+    if (bsdf.empty()) return;
+
+    // Next-event estimation: queue the shadow ray with its contribution.
+    if constexpr (kLights) {
+        LightSample ls;
+        if (bsdf.has_non_delta() &&
+            lights.sample(p, n, bsdf.transmissive(), ps.get(D::bounce(s.bounce, D::kLightPick)),
+                          ps.get(D::bounce(s.bounce, D::kLightU)), ps.get(D::bounce(s.bounce, D::kLightV)), ls)) {
+            float bsdf_pdf = 0.0f;
+            const Vec3f f = bsdf.eval(ls.wi, bsdf_pdf);
+            if (!is_black(f) && !is_black(ls.li)) {
+                Ray& shadow = s.shadow;
+                shadow.o = offset_ray_origin(p, p_error, ng_f, ls.wi);
+                shadow.d = ls.wi;
+                shadow.tmin = kSpawnTmin;
+                // Analytic lights are not geometry: the shadow ray runs the
+                // full distance, so an occluder however close to the light
+                // (a light just outside a wall) still blocks it.
+                shadow.tmax = ls.dist;
+                if (ls.on_surface) {
+                    // Emissive triangles are in the BVH: aim at a point pushed
+                    // off the emitter by its error bound, towards us, so the
+                    // emitter cannot occlude itself and nothing in front of it
+                    // is skipped.
+                    const Vec3f target = offset_ray_origin(ls.p_light, ls.p_light_error, ls.n_light, -ls.wi);
+                    const Vec3f to = target - shadow.o;
+                    const float d = length(to);
+                    shadow.d = to / d;
+                    shadow.tmax = d * (1.0f - 1e-6f);
+                }
+                const float w = ls.delta ? 1.0f : power_heuristic(ls.pdf, bsdf_pdf);
+                s.shadow_contribution = clamp_contribution(s.throughput * f * ls.li * (w / ls.pdf), s.bounce, rs);
+                s.has_shadow = true;
+            }
+        }
+    }
+
+    // Russian roulette on the path throughput (Cycles: sqrt of the max component).
+    if (s.bounce >= rs.rr_min_bounces) {
+        const float q = std::min(1.0f, std::sqrt(max_component(s.throughput)));
+        if (!(ps.get(D::bounce(s.bounce, D::kRoulette)) < q)) return;
+        s.throughput = s.throughput / q;
+    }
+
+    BsdfSample bs;
+    if (!bsdf.sample(ps.get(D::bounce(s.bounce, D::kBsdfLobe)), ps.get(D::bounce(s.bounce, D::kBsdfU)),
+                     ps.get(D::bounce(s.bounce, D::kBsdfV)), bs))
+        return;
+    if constexpr (!kGlass) {
+        if (bs.type == RayType::Refraction) return;  // unreachable: no glass lobes exist
+    }
+    s.throughput *= bs.weight;
+    if (is_black(s.throughput) || !is_finite(s.throughput)) return;
+
+    ++s.bounce;
+    switch (bs.type) {
+        case RayType::Diffuse: ++s.diffuse_bounce; break;
+        case RayType::Refraction: ++s.transmission_bounce; break;
+        default: ++s.glossy_bounce; break;
+    }
+    if (s.bounce > rs.max_bounces || s.diffuse_bounce > rs.diffuse_bounces || s.glossy_bounce > rs.glossy_bounces ||
+        s.transmission_bounce > rs.transmission_bounces || !may_continue(rs.integrator, bs))
+        s.last_ray = true;
+
+    s.prev_pdf = bs.delta ? 0.0f : bs.pdf;
+    s.prev_n = n;
+    s.prev_transmissive = bsdf.transmissive();
+    s.ray.o = offset_ray_origin(p, p_error, ng_f, bs.wi);
+    s.ray.d = bs.wi;
+    s.ray.tmin = kSpawnTmin;
+    s.ray.tmax = kInf;
+    s.type = bs.type;
+    s.alive = true;
+}
+
+// The result of s.shadow. Precondition: s.has_shadow.
+inline void resolve_shadow(PathState& s, bool occluded) {
+    if (!occluded) s.out.radiance += s.shadow_contribution;
+    s.has_shadow = false;
+}
+
+// Ambient occlusion: `unoccluded` of the s.ao_rays rays escaped.
+inline void resolve_ao(PathState& s, int unoccluded) {
+    if (s.ao_rays > 0) s.out.radiance += Vec3f(float(unoccluded) / float(s.ao_rays));
+    s.ao_rays = 0;
+}
+
+// The AO ray length: the setting, or a tenth of the scene's diagonal.
+inline float resolve_ao_distance(const RenderSettings& rs, const Scene& scene) {
+    if (rs.ao_distance > 0.0f && std::isfinite(rs.ao_distance)) return rs.ao_distance;
+    const float d = 0.1f * length(scene.bounds().extent());
+    return d > 0.0f && std::isfinite(d) ? d : 1.0f;
+}
+
+}  // namespace coherent
