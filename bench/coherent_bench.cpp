@@ -2,7 +2,7 @@
 // on the same rays.
 //
 //   coherent-bench SCENE.glb [--threads N] [--json] [--width W] [--height H]
-//                  [--runs R] [--ao-samples S] [--spatial-budget F]
+//                  [--runs R] [--ao-samples S] [--spatial-budget F] [--bvh-width 2|4|8]
 //
 // Ray sets (all generated once, from our own closest hits, and replayed
 // identically through both implementations):
@@ -67,6 +67,7 @@ struct Options {
     float traversal_cost = BvhBuildOptions{}.traversal_cost;
     float spatial_alpha = BvhBuildOptions{}.spatial_split_alpha;
     bool optimal_collapse = BvhBuildOptions{}.optimal_collapse;
+    int bvh_width = BvhBuildOptions{}.width;  // tree width single rays traverse: 2, 4 or 8
     std::string only;  // time only this ray set (empty: all)
 };
 
@@ -77,6 +78,7 @@ struct Options {
                  "[--ao-samples S] [--spatial-budget F]\n"
                  "       [--bins B] [--max-leaf L] [--traversal-cost C] [--spatial-alpha A]\n"
                  "       [--greedy-collapse]   (build tuning, for experiments)\n"
+                 "       [--bvh-width 2|4|8]   (tree width of the single-ray kernel; default 8)\n"
                  "       [--only primary|ao|diffuse]\n");
     std::exit(2);
 }
@@ -114,6 +116,10 @@ Options parse(int argc, char** argv) {
         } else if (a == "--bins") o.bins = parse_int(value("--bins"), "--bins", 2, 64);
         else if (a == "--only") o.only = value("--only");
         else if (a == "--greedy-collapse") o.optimal_collapse = false;
+        else if (a == "--bvh-width") {
+            o.bvh_width = parse_int(value("--bvh-width"), "--bvh-width", 2, 8);
+            if (o.bvh_width != 2 && o.bvh_width != 4 && o.bvh_width != 8) usage("--bvh-width must be 2, 4 or 8");
+        }
         else if (a == "--max-leaf") o.max_leaf = parse_int(value("--max-leaf"), "--max-leaf", 1, 64);
         else if (a == "--spatial-alpha") {
             char* end = nullptr;
@@ -182,11 +188,12 @@ int main(int argc, char** argv) {
         bo.traversal_cost = opt.traversal_cost;
         bo.spatial_split_alpha = opt.spatial_alpha;
         bo.optimal_collapse = opt.optimal_collapse;
+        bo.width = opt.bvh_width;
         arena.execute([&] { bvh.build(scene, bo); });
     }
     const BvhBuildStats& bs = bvh.build_stats();
-    std::fprintf(table, "scene %s: %zu triangles, %d x %d, %d thread(s)\n", name.c_str(), tris, opt.width,
-                 opt.height, opt.threads);
+    std::fprintf(table, "scene %s: %zu triangles, %d x %d, %d thread(s), BVH width %d\n", name.c_str(), tris,
+                 opt.width, opt.height, opt.threads, opt.bvh_width);
     std::fprintf(table,
                  "  coherent build: %.3f s, %zu nodes, %zu leaves, depth %d, %.1f bytes/triangle, %zu references "
                  "(spatial-split budget %.2f)\n"
@@ -351,6 +358,7 @@ int main(int argc, char** argv) {
             std::printf("{\"scene\": \"%s\", \"rays\": \"%s\", \"impl\": \"%s\", \"traversal\": \"single\", "
                         "\"threads\": %d, \"mrays_per_s\": %.3f",
                         name.c_str(), r.rays.c_str(), r.impl.c_str(), opt.threads, r.mrays);
+            if (r.impl == "coherent") std::printf(", \"bvh_width\": %d", opt.bvh_width);
             if (ratio >= 0) std::printf(", \"ratio_vs_embree\": %.3f", ratio);
             if (r.ratio_avx2 >= 0) std::printf(", \"ratio_vs_embree_avx2\": %.3f", r.ratio_avx2);
             if (r.agreement >= 0) std::printf(", \"agreement\": %.6f", r.agreement);

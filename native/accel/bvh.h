@@ -1,10 +1,11 @@
 // Binary BVH over the scene's triangles: build (bvh_build.cpp; with spatial
 // splits, the default, bvh_build_spatial.cpp) is separate from traversal
 // (traverse_single.cpp). The binary tree (nodes()) is the
-// portable result; single-ray traversal runs on a private 8-wide collapse of
-// it (bvh_layout.h, bvh_layout.cpp). Later layers add packets and streams
-// over the same tree; every kernel must return identical closest hits for
-// the same rays.
+// portable result; single-ray traversal runs on it directly or on a private
+// 4- or 8-wide collapse of it (BvhBuildOptions::width; bvh_layout.h,
+// bvh_layout.cpp). Packets (traverse_packet.cpp) and breadth-first ray
+// streams (ray_stream.h) run over the same tree; every kernel must return
+// identical closest hits for the same rays.
 #pragma once
 
 #include <cstddef>
@@ -70,6 +71,7 @@ struct BvhBuildOptions {
     // Width of the tree single rays traverse: 2 (the binary nodes), 4 or 8
     // (the binary tree collapsed into 4- or 8-wide nodes). Same hits for
     // every width; a setting so the widths can be measured side by side.
+    // Any other value makes build() throw std::invalid_argument.
     int width = 8;
 };
 
@@ -81,9 +83,11 @@ struct BvhBuildStats {
     int depth = 0;
     size_t references = 0;  // leaf slots (prim_order().size()): triangles plus spatial-split duplicates
     size_t wide_nodes = 0;  // 8-wide traversal nodes
+    size_t wide4_nodes = 0;  // 4-wide traversal nodes (built only for width 4)
     // Sum over the wide nodes below the root of area(node) / area(root): the
     // SAH estimate of wide-node visits per ray that enters the root (what
-    // the optimal collapse minimises).
+    // the optimal collapse minimises), for the tree single rays traverse
+    // (8- or 4-wide; 0 for width 2).
     double wide_node_visit_estimate = 0.0;
     // Seconds of the latest refit() (0 if never refit).
     double refit_seconds = 0.0;
@@ -137,6 +141,16 @@ public:
     // spatial splits a triangle may occupy several slots (in different leaves).
     const std::vector<uint32_t>& prim_order() const { return prim_order_; }
 
+    // Width single rays traverse (BvhBuildOptions::width of the last build).
+    int width() const { return width_; }
+
+    // The 8-wide traversal layout (bvh_layout.h), for kernels outside this
+    // class (breadth-first ray streams, ray_stream.h). Built for every
+    // width: streams always run on it. Root at index 0; empty when empty().
+    const WideNode8* wide_nodes() const { return wide_.data(); }
+    size_t wide_node_count() const { return wide_.size(); }
+    const TrianglePack4* triangle_packs() const { return packs_.data(); }
+
 private:
     void build_from(const Vec3f* triangle_vertices, size_t triangle_count, const BvhBuildOptions& opt);
     template <bool kAnyHit, bool kCount>
@@ -159,6 +173,11 @@ private:
     // interior nodes): kernels that walk the binary tree (packets) test the
     // same packs as the wide one.
     std::vector<uint32_t> binary_pack_;
+    // Width 4 only: the 4-wide collapse (root first) and, as wide_binary_
+    // for the 8-wide one, the binary node of each of its slots (for refit).
+    std::vector<WideNode4, AlignedAllocator<WideNode4, 64>> wide4_;
+    std::vector<uint32_t> wide4_binary_;
+    int width_ = 8;
     BvhBuildStats stats_;
 };
 

@@ -12,6 +12,8 @@
 // that siblings are adjacent.
 #include <algorithm>
 #include <chrono>
+#include <stdexcept>
+#include <string>
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
@@ -267,10 +269,15 @@ void Bvh::build(const std::vector<Vec3f>& triangle_vertices, const BvhBuildOptio
 
 void Bvh::build_from(const Vec3f* verts, size_t triangle_count, const BvhBuildOptions& opt) {
     const auto start = std::chrono::steady_clock::now();
+    if (opt.width != 2 && opt.width != 4 && opt.width != 8)
+        throw std::invalid_argument("BvhBuildOptions::width must be 2, 4 or 8, got " + std::to_string(opt.width));
     nodes_.clear();
     prim_order_.clear();
     wide_.clear();
     packs_.clear();
+    wide4_.clear();
+    wide4_binary_.clear();
+    width_ = opt.width;
     stats_ = {};
 
     // Per-triangle bounds and centroids. Triangles with a non-finite vertex
@@ -355,7 +362,8 @@ void Bvh::build_from(const Vec3f* verts, size_t triangle_count, const BvhBuildOp
     // Everything the BVH keeps: the portable tree, the leaf order, and the
     // traversal layout (wide nodes + triangle packs), which is what rays touch.
     stats_.bytes = nodes_.size() * sizeof(BvhNode) + prim_order_.size() * sizeof(uint32_t) +
-                   wide_.size() * sizeof(WideNode8) + packs_.size() * sizeof(TrianglePack4);
+                   wide_.size() * sizeof(WideNode8) + wide4_.size() * sizeof(WideNode4) +
+                   packs_.size() * sizeof(TrianglePack4);
     stats_.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 }
 

@@ -1,4 +1,5 @@
-// Traversal layout of the BVH (private to the accel layer).
+// Traversal layout of the BVH (private to the accel layer; read by the
+// kernels of traverse_single.cpp and ray_stream.cpp).
 //
 // The build produces the portable binary tree of bvh.h (BvhNode, 32 bytes).
 // Single-ray traversal reads a wide copy of it: the binary tree collapsed to
@@ -30,6 +31,20 @@ struct alignas(64) WideNode8 {
     uint32_t count[kWideWidth];
 };
 static_assert(sizeof(WideNode8) == 256, "WideNode8 must fill exactly four cache lines");
+
+// A 4-wide node (BvhBuildOptions::width = 4): the same layout and rules as
+// WideNode8 with four slots, tested with one SSE instruction per plane.
+// Half the size (two cache lines) and about twice as many nodes per ray as
+// the 8-wide tree: the width sweep of bench/wide_bench.cpp measures which
+// wins.
+constexpr int kWide4Width = 4;
+struct alignas(64) WideNode4 {
+    float lo[3][kWide4Width];
+    float hi[3][kWide4Width];
+    uint32_t ref[kWide4Width];
+    uint32_t count[kWide4Width];
+};
+static_assert(sizeof(WideNode4) == 128, "WideNode4 must fill exactly two cache lines");
 
 // Four triangles in SoA order: v[vertex][axis][lane]. Unused lanes repeat
 // lane 0's vertices with prim = kInvalidPrim and are masked out by count.

@@ -9,12 +9,15 @@
 //     full boxes (with spatial splits a reference's box was clipped to its
 //     part of the triangle; the full box is larger, hence still
 //     conservative), an interior node's the union of its two children;
-//  2. wide nodes: every child slot copies its binary node's box
-//     (wide_binary_ remembers which, so the collapse is not redone);
+//  2. wide nodes (8-wide, and 4-wide for width 4; width 2 traverses the
+//     binary nodes themselves): every child slot copies its binary node's
+//     box (wide_binary_ / wide4_binary_ remember which, so the collapse is
+//     not redone);
 //  3. triangle packs: every lane reloads its triangle's vertices (unused
 //     lanes repeat lane 0's, as the build wrote them).
 #include <stdexcept>
 #include <string>
+#include <type_traits>
 
 #include "../scene/scene.h"
 #include "bvh.h"
@@ -84,20 +87,27 @@ void Bvh::refit_from(const Vec3f* verts, size_t triangle_count) {
         n.box = box;
     }
 
-    // 2. Wide nodes: same slots, new boxes. An unused slot keeps its empty box.
-    tbb::parallel_for(tbb::blocked_range<size_t>(0, wide_.size(), kRefitGrain / 8),
-                      [&](const tbb::blocked_range<size_t>& r) {
-                          for (size_t w = r.begin(); w < r.end(); ++w)
-                              for (int c = 0; c < kWideWidth; ++c) {
-                                  const uint32_t b = wide_binary_[w * kWideWidth + c];
-                                  if (b == kEmptyChild) continue;
-                                  const BBox& box = nodes_[b].box;
-                                  for (int a = 0; a < 3; ++a) {
-                                      wide_[w].lo[a][c] = box.lo[a];
-                                      wide_[w].hi[a][c] = box.hi[a];
+    // 2. Wide nodes (the 8-wide tree, and the 4-wide one for width 4): same
+    // slots, new boxes. An unused slot keeps its empty box.
+    auto refit_wide = [&](auto& wide, const std::vector<uint32_t>& slot_binary) {
+        using Node = std::decay_t<decltype(wide[0])>;
+        constexpr int W = static_cast<int>(sizeof(Node::ref) / sizeof(uint32_t));
+        tbb::parallel_for(tbb::blocked_range<size_t>(0, wide.size(), kRefitGrain / W),
+                          [&](const tbb::blocked_range<size_t>& r) {
+                              for (size_t w = r.begin(); w < r.end(); ++w)
+                                  for (int c = 0; c < W; ++c) {
+                                      const uint32_t b = slot_binary[w * W + c];
+                                      if (b == kEmptyChild) continue;
+                                      const BBox& box = nodes_[b].box;
+                                      for (int a = 0; a < 3; ++a) {
+                                          wide[w].lo[a][c] = box.lo[a];
+                                          wide[w].hi[a][c] = box.hi[a];
+                                      }
                                   }
-                              }
-                      });
+                          });
+    };
+    refit_wide(wide_, wide_binary_);
+    refit_wide(wide4_, wide4_binary_);
 
     // 3. Triangle packs. Lane 0 is always a real triangle; masked lanes copy it.
     tbb::parallel_for(tbb::blocked_range<size_t>(0, packs_.size(), kRefitGrain),
