@@ -101,7 +101,63 @@ public:
         return q.tfar < 0.0f;  // Embree sets tfar = -inf on a hit
     }
 
+    // Eight rays at once (rtcIntersect8): lanes with valid[i] == -1 are
+    // traced, the others (valid[i] == 0) are ignored and their hits[i] left
+    // as they are. `coherent` sets RTC_INTERSECT_CONTEXT_FLAG_COHERENT (the
+    // rays come from one pixel block). Returns the mask of lanes that hit.
+    int intersect8(const int* valid, const Ray* rays, Hit* hits, bool coherent = true) const {
+        RTCIntersectContext ctx;
+        rtcInitIntersectContext(&ctx);
+        if (coherent) ctx.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
+        alignas(32) RTCRayHit8 rh;
+        alignas(32) int v[8];
+        for (int i = 0; i < 8; ++i) {
+            v[i] = valid[i];
+            fill8(rh.ray, i, valid[i] ? rays[i] : Ray{});
+            rh.hit.geomID[i] = RTC_INVALID_GEOMETRY_ID;
+            rh.hit.primID[i] = RTC_INVALID_GEOMETRY_ID;
+            rh.hit.instID[0][i] = RTC_INVALID_GEOMETRY_ID;
+        }
+        rtcIntersect8(v, scene_, &ctx, &rh);
+        int mask = 0;
+        for (int i = 0; i < 8; ++i) {
+            if (!valid[i] || rh.hit.geomID[i] == RTC_INVALID_GEOMETRY_ID) continue;
+            hits[i] = Hit{rh.ray.tfar[i], rh.hit.u[i], rh.hit.v[i], rh.hit.primID[i]};
+            mask |= 1 << i;
+        }
+        return mask;
+    }
+
+    // Eight occlusion rays (rtcOccluded8); returns the mask of occluded lanes.
+    int occluded8(const int* valid, const Ray* rays, bool coherent = true) const {
+        RTCIntersectContext ctx;
+        rtcInitIntersectContext(&ctx);
+        if (coherent) ctx.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
+        alignas(32) RTCRay8 r;
+        alignas(32) int v[8];
+        for (int i = 0; i < 8; ++i) {
+            v[i] = valid[i];
+            fill8(r, i, valid[i] ? rays[i] : Ray{});
+        }
+        rtcOccluded8(v, scene_, &ctx, &r);
+        int mask = 0;
+        for (int i = 0; i < 8; ++i)
+            if (valid[i] && r.tfar[i] < 0.0f) mask |= 1 << i;  // Embree sets tfar = -inf on a hit
+        return mask;
+    }
+
 private:
+    static void fill8(RTCRay8& q, int i, const Ray& r) {
+        q.org_x[i] = r.o.x; q.org_y[i] = r.o.y; q.org_z[i] = r.o.z;
+        q.dir_x[i] = r.d.x; q.dir_y[i] = r.d.y; q.dir_z[i] = r.d.z;
+        q.tnear[i] = r.tmin;
+        q.tfar[i] = r.tmax;
+        q.time[i] = 0.0f;
+        q.mask[i] = 0xffffffffu;
+        q.id[i] = 0;
+        q.flags[i] = 0;
+    }
+
     RTCDevice device_ = nullptr;
     RTCScene scene_ = nullptr;
     double build_seconds_ = 0.0;
