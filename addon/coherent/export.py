@@ -19,10 +19,12 @@ import time
 
 import numpy as np
 
-from . import materials
+from . import materials, motion
 
 # Object types that evaluate to a surface we can triangulate.
 _MESH_TYPES = {"MESH", "CURVE", "SURFACE", "FONT", "META"}
+# Object types whose instances can move during the shutter (motion blur).
+MOTION_TYPES = _MESH_TYPES
 # Object types with nothing to render for us (not worth a warning).
 _SILENT_TYPES = {"CAMERA", "EMPTY", "ARMATURE", "LATTICE", "SPEAKER", "LIGHT_PROBE", "GPENCIL"}
 
@@ -170,8 +172,12 @@ class ExportResult:
 class SceneExporter:
     """Converts one evaluated depsgraph into a native Scene."""
 
-    def __init__(self, native, depsgraph, width, height, camera_override=None, need_camera=True, mesh_cache=None):
+    def __init__(self, native, depsgraph, width, height, camera_override=None, need_camera=True, mesh_cache=None,
+                 motion=None):
         self.native = native
+        # Object motion blur: {motion.instance_key: (matrix_open, matrix_close)}
+        # for the instances that move during the shutter (motion.py).
+        self.motion = motion or {}
         self.depsgraph = depsgraph
         self.width = width
         self.height = height
@@ -275,8 +281,14 @@ class SceneExporter:
         name = ob.name
         if inst is not None and inst.is_instance and inst.parent is not None and inst.parent.name != ob.name:
             name = f"{inst.parent.name}/{ob.name}"
+        matrix_close = None
+        if self.motion:
+            moving = self.motion.get(motion.instance_key(inst, ob))
+            if moving is not None:
+                matrix, matrix_close = moving
         self.result.scene.add_mesh(name, arrays.positions, arrays.indices, matrix,
-                                   normals=arrays.normals, material_ids=material_ids, material_slots=slots)
+                                   normals=arrays.normals, material_ids=material_ids, material_slots=slots,
+                                   matrix_close=matrix_close)
         self.result.instances += 1
 
     # -- lights -----------------------------------------------------------------
@@ -450,12 +462,14 @@ def scan_instances(depsgraph):
 
 
 def export_scene(native, depsgraph, width, height, camera_override=None, cancelled=lambda: False,
-                 need_camera=True, mesh_cache=None):
+                 need_camera=True, mesh_cache=None, motion=None):
     """Exports the evaluated depsgraph; returns an ExportResult (scene, warnings, counts, seconds).
 
     width/height (pixels) only serve the camera's sensor fit; with
     need_camera=False the scene camera is ignored (viewports). `mesh_cache`
     (a MeshCache) lets an interactive session reuse extracted meshes.
+    `motion` (motion.shutter_matrices) makes the instances it lists move
+    during the shutter (object motion blur).
     """
-    exporter = SceneExporter(native, depsgraph, width, height, camera_override, need_camera, mesh_cache)
+    exporter = SceneExporter(native, depsgraph, width, height, camera_override, need_camera, mesh_cache, motion)
     return exporter.export(cancelled)

@@ -18,9 +18,11 @@
 #pragma once
 
 #include <algorithm>
+#include <cmath>
 #include <vector>
 
 #include "../accel/ray_packet.h"
+#include "../accel/ray_stream.h"
 #include "path_state.h"
 #include "path_tracer.h"
 
@@ -81,6 +83,20 @@ inline void book_packet(RenderStats& st, int bounce, RayType type, const PacketC
     }
 }
 
+// |mean of the rays' unit directions|: 1 when all point the same way, near 0
+// for directions spread over the sphere.
+inline float packet_coherence(const RayPacket& pk) {
+    float sx = 0.0f, sy = 0.0f, sz = 0.0f;
+    for (int i = 0; i < pk.size; ++i) {
+        const float len = std::sqrt(pk.dx[i] * pk.dx[i] + pk.dy[i] * pk.dy[i] + pk.dz[i] * pk.dz[i]);
+        if (!(len > 0.0f) || !std::isfinite(len)) continue;  // invalid rays: no vote
+        sx += pk.dx[i] / len;
+        sy += pk.dy[i] / len;
+        sz += pk.dz[i] / len;
+    }
+    return pk.size ? std::sqrt(sx * sx + sy * sy + sz * sz) / float(pk.size) : 0.0f;
+}
+
 // Scratch of one packet (a few tens of KB: kept per thread, not per call).
 struct PacketScratch {
     RayPacket packet;
@@ -101,37 +117,68 @@ void trace_batch_packets(const PathContext& ctx, PacketAssembly assembly, PathBa
     const bool heat = !batch.node_visits.empty();
     RayPacket& pk = scratch.packet;
     const int packets = int(batch.packet_begin.size()) - 1;
+    const float min_coherence = ctx.settings->packet_min_coherence;
 
     // Traces the extension rays gathered in pk, then shades their paths.
     auto flush_extension = [&](int bounce, RayType type) {
         if (pk.size == 0) return;
         scratch.hits.reset(pk.size);
-        PacketCounters pc;
-        if (heat) {
-            std::fill_n(scratch.lane_visits, pk.size, 0u);
-            pc.ray_node_visits = scratch.lane_visits;
+        if (packet_coherence(pk) >= min_coherence) {
+            PacketCounters pc;
+            if (heat) {
+                std::fill_n(scratch.lane_visits, pk.size, 0u);
+                pc.ray_node_visits = scratch.lane_visits;
+            }
+            bvh.intersect(pk, scratch.hits, &pc);
+            book_packet(st, bounce, type, pc, pk, scratch.lane_path, scratch.lane_visits, batch);
+        } else {  // incoherent: one ray at a time
+            for (int i = 0; i < pk.size; ++i) {
+                TraversalCounters c;
+                Hit h;
+                if (bvh.intersect(pk.ray(i), h, &c)) {
+                    scratch.hits.t[i] = h.t;
+                    scratch.hits.u[i] = h.u;
+                    scratch.hits.v[i] = h.v;
+                    scratch.hits.prim[i] = h.prim;
+                }
+                book_single_ray(st, bounce, type, c, heat ? &batch.node_visits[size_t(scratch.lane_path[i])] : nullptr);
+            }
         }
-        bvh.intersect(pk, scratch.hits, &pc);
-        book_packet(st, bounce, type, pc, pk, scratch.lane_path, scratch.lane_visits, batch);
+        TraversalCounters motion;  // moving triangles: one ray at a time
         for (int i = 0; i < pk.size; ++i) {
             const size_t p = size_t(scratch.lane_path[i]);
-            const Hit h = scratch.hits.hit(i);
-            shade_hit<Sampler, kGlass, kLights>(ctx, batch.samplers[p], batch.states[p], h.valid(), h);
+            Hit h = scratch.hits.hit(i);
+            const bool found = merge_motion_hit(ctx, batch.states[p], h.valid(), h, &motion);
+            shade_hit<Sampler, kGlass, kLights>(ctx, batch.samplers[p], batch.states[p], found, h);
         }
+        if (ctx.motion) book_motion(st, bounce, motion);
         pk.clear();
     };
     // Traces the occlusion rays gathered in pk; `done(lane, occluded)` takes each result.
     auto flush_occlusion = [&](int bounce, auto&& done) {
         if (pk.size == 0) return;
         scratch.occluded = OcclusionMask{};
-        PacketCounters pc;
-        if (heat) {
-            std::fill_n(scratch.lane_visits, pk.size, 0u);
-            pc.ray_node_visits = scratch.lane_visits;
+        if (packet_coherence(pk) >= min_coherence) {
+            PacketCounters pc;
+            if (heat) {
+                std::fill_n(scratch.lane_visits, pk.size, 0u);
+                pc.ray_node_visits = scratch.lane_visits;
+            }
+            bvh.occluded(pk, scratch.occluded, &pc);
+            book_packet(st, bounce, RayType::Shadow, pc, pk, scratch.lane_path, scratch.lane_visits, batch);
+        } else {
+            for (int i = 0; i < pk.size; ++i) {
+                TraversalCounters c;
+                if (bvh.occluded(pk.ray(i), &c)) scratch.occluded.set(i);
+                book_single_ray(st, bounce, RayType::Shadow, c,
+                                heat ? &batch.node_visits[size_t(scratch.lane_path[i])] : nullptr);
+            }
         }
-        bvh.occluded(pk, scratch.occluded, &pc);
-        book_packet(st, bounce, RayType::Shadow, pc, pk, scratch.lane_path, scratch.lane_visits, batch);
-        for (int i = 0; i < pk.size; ++i) done(i, scratch.occluded.test(i));
+        TraversalCounters motion;
+        for (int i = 0; i < pk.size; ++i)
+            done(i, scratch.occluded.test(i) ||
+                        motion_occluded(ctx, batch.states[size_t(scratch.lane_path[i])], pk.ray(i), &motion));
+        if (ctx.motion) book_motion(st, bounce, motion);
         pk.clear();
     };
 
@@ -219,6 +266,103 @@ void trace_batch_packets(const PathContext& ctx, PacketAssembly assembly, PathBa
             for (int p = b; p < e && !any_alive; ++p) any_alive = batch.states[size_t(p)].alive;
         }
         if (!any_alive) break;
+    }
+}
+
+}  // namespace coherent
+
+namespace coherent {
+
+// Stream scratch: the batch's rays of one kind, traced as one stream.
+struct StreamScratch {
+    std::vector<Ray> rays;
+    std::vector<Hit> hits;
+    std::vector<uint8_t> occluded;
+    std::vector<int> path;  // ray -> path
+};
+
+// Traces `batch` to completion with breadth-first ray streams (ray_stream.h):
+// after every bounce, all the batch's extension rays form one stream, then
+// all its shadow rays (and at the first hit all its AO rays) another. The
+// stream runs on the calling thread (the renderer already runs one batch
+// per task). Same shading, hence the same image, as the other drivers.
+template <class Sampler, bool kGlass, bool kLights>
+void trace_batch_streams(const PathContext& ctx, PathBatch<Sampler>& batch, StreamScratch& scratch,
+                         RenderStats& st) {
+    const Bvh& bvh = *ctx.bvh;
+    StreamOptions options;
+    options.batch_size = 0;  // the whole stream at once
+    options.parallel = false;
+    auto book = [&](int bounce, const StreamStats& ss, const std::vector<int>& path, auto&& type_of) {
+        for (size_t i = 0; i < path.size(); ++i) ++st.rays[size_t(type_of(path[i]))];
+        st.traversal.rays += ss.rays;
+        st.traversal.node_visits += ss.node_visits;
+        st.traversal.box_tests += ss.box_tests;
+        st.traversal.triangle_tests += ss.triangle_tests;
+        BounceStats& b = st.bounces[size_t(std::min(bounce, kStatBounces - 1))];
+        b.rays += ss.rays;
+        b.node_visits += ss.node_visits;
+        b.box_tests += ss.box_tests;
+        b.triangle_tests += ss.triangle_tests;
+    };
+    auto shadow_type = [](int) { return RayType::Shadow; };
+    for (int bounce = 0;; ++bounce) {
+        scratch.rays.clear();
+        scratch.path.clear();
+        for (size_t p = 0; p < batch.size(); ++p)
+            if (batch.states[p].alive) {
+                scratch.rays.push_back(batch.states[p].ray);
+                scratch.path.push_back(int(p));
+            }
+        if (scratch.rays.empty()) break;
+        scratch.hits.assign(scratch.rays.size(), Hit{});
+        StreamStats ss;
+        intersect_stream(bvh, scratch.rays.data(), scratch.rays.size(), scratch.hits.data(), &ss, options);
+        book(bounce, ss, scratch.path, [&](int p) { return batch.states[size_t(p)].type; });
+        TraversalCounters motion;
+        for (size_t i = 0; i < scratch.path.size(); ++i) {
+            const size_t p = size_t(scratch.path[i]);
+            const bool found = merge_motion_hit(ctx, batch.states[p], scratch.hits[i].valid(), scratch.hits[i], &motion);
+            shade_hit<Sampler, kGlass, kLights>(ctx, batch.samplers[p], batch.states[p], found, scratch.hits[i]);
+        }
+        if (ctx.motion) book_motion(st, bounce, motion);
+        // Occlusion rays: shadow rays, and at the first hit the AO rays.
+        scratch.rays.clear();
+        scratch.path.clear();
+        for (size_t p = 0; p < batch.size(); ++p) {
+            const PathState& s = batch.states[p];
+            if (s.has_shadow) {
+                scratch.rays.push_back(s.shadow);
+                scratch.path.push_back(int(p));
+            }
+            for (int i = 0; i < s.ao_rays; ++i) {
+                scratch.rays.push_back(ao_ray(ctx, batch.samplers[p], s, i));
+                scratch.path.push_back(int(p));
+            }
+        }
+        if (scratch.rays.empty()) continue;
+        scratch.occluded.assign(scratch.rays.size(), 0);
+        occluded_stream(bvh, scratch.rays.data(), scratch.rays.size(), scratch.occluded.data(), &ss, options);
+        book(bounce, ss, scratch.path, shadow_type);
+        if (ctx.motion) {
+            TraversalCounters mc;
+            for (size_t i = 0; i < scratch.rays.size(); ++i)
+                if (!scratch.occluded[i] && motion_occluded(ctx, batch.states[size_t(scratch.path[i])], scratch.rays[i], &mc))
+                    scratch.occluded[i] = 1;
+            book_motion(st, bounce, mc);
+        }
+        // Rays of a path are consecutive: its shadow ray, or its AO rays.
+        for (size_t i = 0; i < scratch.path.size();) {
+            PathState& s = batch.states[size_t(scratch.path[i])];
+            if (s.has_shadow) {
+                resolve_shadow(s, scratch.occluded[i] != 0);
+                ++i;
+            } else {
+                int unoccluded = 0;
+                for (int k = 0; k < s.ao_rays; ++k, ++i) unoccluded += scratch.occluded[i] ? 0 : 1;
+                resolve_ao(s, unoccluded);
+            }
+        }
     }
 }
 

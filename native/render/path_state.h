@@ -28,6 +28,7 @@
 #include <limits>
 
 #include "../accel/bvh.h"
+#include "../accel/motion_bvh.h"
 #include "../sample/sampler.h"
 #include "../scene/scene.h"
 #include "bsdf.h"
@@ -59,6 +60,9 @@ struct PathContext {
     const LightSet* lights;
     const RenderSettings* settings;
     float ao_distance = 0.0f;  // resolved AO ray length (Integrator::AmbientOcclusion)
+    // Object motion blur: the moving triangles (null when nothing moves;
+    // they are then absent from `bvh`, see Renderer).
+    const MotionBvh* motion = nullptr;
 };
 
 // Cycles' sample clamping: a contribution whose light left path vertex
@@ -89,9 +93,25 @@ struct PathState {
     // and the frame they are drawn in.
     int ao_rays = 0;
     Vec3f ao_origin{0.0f}, ao_normal{0.0f};
+    // Motion blur: the shutter time, in [0, 1), at which this path sees the
+    // scene (every ray of a path, as in distribution ray tracing).
+    float time = 0.0f;
 
     PathOutput out;
 };
+
+// Motion blur, for drivers: merge the moving triangles' closest hit of s.ray
+// into the static BVH's (found, hit); returns whether anything is hit.
+inline bool merge_motion_hit(const PathContext& ctx, const PathState& s, bool found, Hit& hit,
+                             TraversalCounters* counters = nullptr) {
+    if (!ctx.motion) return found;
+    return ctx.motion->intersect(s.ray, s.time, hit, counters) || found;
+}
+// Whether a moving triangle blocks occlusion ray `r` of path s.
+inline bool motion_occluded(const PathContext& ctx, const PathState& s, const Ray& r,
+                            TraversalCounters* counters = nullptr) {
+    return ctx.motion && ctx.motion->occluded(r, s.time, counters);
+}
 
 // Integrators as continuation rules (render_modes.h): after a BSDF sample,
 // whether the sampled ray may start a new bounce. A ray that may not is still
@@ -128,6 +148,7 @@ inline void start_path(const PathContext& ctx, const PathSampler<Sampler>& ps, i
         lens_v = ps.get(D::kLensV);
     }
     s = PathState{};
+    if (ctx.motion) s.time = ps.get(D::kTime);
     s.ray = generate_camera_ray<kDepthOfField>(ctx.scene->camera, fx, fy, rs.width, rs.height, lens_u, lens_v).ray;
     s.type = RayType::Camera;
 }
@@ -190,15 +211,31 @@ inline void shade_hit(const PathContext& ctx, const PathSampler<Sampler>& ps, Pa
 
     const uint32_t tri = hit.prim;
     const Vec3f* v = &scene.vertices[3 * size_t(tri)];
+    const Vec3f* sn = &scene.normals[3 * size_t(tri)];
+    Vec3f ng = scene.geometric_normals[tri];
+    // A moving triangle is shaded where the ray met it: at the path's time,
+    // with the very vertices the intersector used (motion_vertex()).
+    Vec3f moved[3], moved_n[3];
+    if (scene.is_moving(tri)) {
+        const Vec3f* vc = &scene.motion_vertices[3 * size_t(tri)];
+        const Vec3f* nc = &scene.motion_normals[3 * size_t(tri)];
+        for (int k = 0; k < 3; ++k) {
+            moved[k] = motion_vertex(v[k], vc[k], s.time);
+            moved_n[k] = motion_vertex(sn[k], nc[k], s.time);
+        }
+        v = moved;
+        sn = moved_n;
+        const Vec3f c = cross(v[1] - v[0], v[2] - v[0]);
+        const float len = length(c);
+        if (len > 0.0f && std::isfinite(len)) ng = c / len;  // else keep the open pose's normal
+    }
     Vec3f p_error;
     const Vec3f p = triangle_point(v[0], v[1], v[2], hit.u, hit.v, p_error);
     const Vec3f wo = -s.ray.d;
-    const Vec3f ng = scene.geometric_normals[tri];
     const bool front = dot(wo, ng) > 0.0f;
     const Vec3f ng_f = front ? ng : -ng;
     Vec3f n = ng_f;
     if (scene.has_normals[tri]) {
-        const Vec3f* sn = &scene.normals[3 * size_t(tri)];
         const Vec3f interp = sn[0] * (1.0f - hit.u - hit.v) + sn[1] * hit.u + sn[2] * hit.v;
         const float len = length(interp);
         if (len > 0.0f && std::isfinite(len)) {

@@ -31,6 +31,17 @@ inline void book_single_ray(RenderStats& st, int bounce, RayType type, const Tra
     if (path_node_visits) *path_node_visits += uint32_t(c.node_visits);
 }
 
+// Books the moving triangles' traversal work (its rays were booked already).
+inline void book_motion(RenderStats& st, int bounce, const TraversalCounters& c) {
+    st.traversal.node_visits += c.node_visits;
+    st.traversal.box_tests += c.box_tests;
+    st.traversal.triangle_tests += c.triangle_tests;
+    BounceStats& b = st.bounces[size_t(std::min(bounce, kStatBounces - 1))];
+    b.node_visits += c.node_visits;
+    b.box_tests += c.box_tests;
+    b.triangle_tests += c.triangle_tests;
+}
+
 template <class Sampler, bool kGlass, bool kDepthOfField, bool kLights>
 PathOutput trace_path(const PathContext& ctx, const PathSampler<Sampler>& ps, int px, int py, RenderStats& st,
                       uint32_t* node_visits = nullptr) {
@@ -41,12 +52,12 @@ PathOutput trace_path(const PathContext& ctx, const PathSampler<Sampler>& ps, in
         const int bounce = s.bounce;
         TraversalCounters c;
         Hit hit;
-        const bool found = bvh.intersect(s.ray, hit, &c);
+        const bool found = merge_motion_hit(ctx, s, bvh.intersect(s.ray, hit, &c), hit, &c);
         book_single_ray(st, bounce, s.type, c, node_visits);
         shade_hit<Sampler, kGlass, kLights>(ctx, ps, s, found, hit);
         if (s.has_shadow) {
             TraversalCounters cs;
-            const bool occluded = bvh.occluded(s.shadow, &cs);
+            const bool occluded = bvh.occluded(s.shadow, &cs) || motion_occluded(ctx, s, s.shadow, &cs);
             book_single_ray(st, bounce, RayType::Shadow, cs, node_visits);
             resolve_shadow(s, occluded);
         }
@@ -54,7 +65,8 @@ PathOutput trace_path(const PathContext& ctx, const PathSampler<Sampler>& ps, in
             int unoccluded = 0;
             for (int i = 0; i < s.ao_rays; ++i) {
                 TraversalCounters ca;
-                unoccluded += bvh.occluded(ao_ray(ctx, ps, s, i), &ca) ? 0 : 1;
+                const Ray r = ao_ray(ctx, ps, s, i);
+                unoccluded += bvh.occluded(r, &ca) || motion_occluded(ctx, s, r, &ca) ? 0 : 1;
                 book_single_ray(st, bounce, RayType::Shadow, ca, node_visits);
             }
             resolve_ao(s, unoccluded);

@@ -13,6 +13,8 @@
 #include <optional>
 #include <string_view>
 
+#include "../sample/sampler_type.h"
+
 namespace coherent {
 
 // Light transport (Boulos et al. 2007 section 4; Cook 1984; Whitted 1980):
@@ -39,7 +41,19 @@ enum class Integrator : uint8_t { PathTrace, Distribution, Whitted, RayCast, Amb
 //   Stream:    breadth-first ray streams (per-node ray queues) over the wide BVH.
 //   Wavefront: the staged pipeline (generate, extend, reorder, shade,
 //              shadow) over waves of wave_size paths, reordered by `reorder`.
-enum class Traversal : uint8_t { Single, Packet, Stream, Wavefront };
+//   Auto:      resolved by resolve_traversal() below.
+enum class Traversal : uint8_t { Single, Packet, Stream, Wavefront, Auto };
+
+// Auto: packets where they pay, single rays elsewhere. Measured on whole
+// renders (docs/results/coherent_paths.md): with CPT, whose rays share
+// their random numbers per packet, packets beat single rays at every bounce
+// depth; with SPT and ICPT they do not (SPT's bounces are incoherent; ICPT's
+// coherent groups are sparse in the image, so its camera packets are not),
+// so those trace single rays. Never returns Auto.
+constexpr Traversal resolve_traversal(Traversal requested, SamplerType resolved_sampler) {
+    if (requested != Traversal::Auto) return requested;
+    return resolved_sampler == SamplerType::Cpt ? Traversal::Packet : Traversal::Single;
+}
 
 // Packet assembly of secondary rays after every bounce (Boulos et al. 2007,
 // section 3.2), within each packet of pixels:
@@ -72,6 +86,7 @@ constexpr std::string_view traversal_name(Traversal t) {
         case Traversal::Packet: return "packet";
         case Traversal::Stream: return "stream";
         case Traversal::Wavefront: return "wavefront";
+        case Traversal::Auto: return "auto";
     }
     return "single";
 }
@@ -97,7 +112,7 @@ inline std::optional<Integrator> parse_integrator(std::string_view s) {
 }
 inline std::optional<Traversal> parse_traversal(std::string_view s) {
     if (s == "wide") return Traversal::Single;
-    for (Traversal t : {Traversal::Single, Traversal::Packet, Traversal::Stream, Traversal::Wavefront})
+    for (Traversal t : {Traversal::Single, Traversal::Packet, Traversal::Stream, Traversal::Wavefront, Traversal::Auto})
         if (s == traversal_name(t)) return t;
     return std::nullopt;
 }

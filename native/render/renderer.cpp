@@ -20,6 +20,7 @@
 #include "light_sampling.h"
 #include "packet_paths.h"
 #include "path_tracer.h"
+#include "wavefront.h"
 
 namespace coherent {
 
@@ -40,6 +41,7 @@ struct TileJob {
     bool heatmaps;
     int packet_width, packet_height;  // packet traversal: pixels per packet
     PacketAssembly assembly;
+    struct WavefrontPool* wavefront;  // wavefront traversal: per-thread pipelines
 
     bool skip(int x, int y) const {
         // Adaptive sampling: a converged pixel keeps its mean and takes no more samples.
@@ -82,19 +84,42 @@ void render_tile_packets(const TileJob& job, RenderStats& st) {
     if (job.cancelled->load(std::memory_order_relaxed)) return;
     PathBatch<ImageSampler> batch;
     batch.clear();
-    for (int by = job.y0; by < job.y1; by += job.packet_height)
-        for (int bx = job.x0; bx < job.x1; bx += job.packet_width) {
-            for (int y = by; y < std::min(by + job.packet_height, job.y1); ++y)
-                for (int x = bx; x < std::min(bx + job.packet_width, job.x1); ++x) {
-                    if (job.skip(x, y)) continue;
-                    batch.samplers.emplace_back(*job.sampler, uint32_t(x), uint32_t(y), job.sample);
-                    batch.states.emplace_back();
-                    start_path<ImageSampler, kDepthOfField>(*job.ctx, batch.samplers.back(), x, y, batch.states.back());
-                    batch.px.push_back(x);
-                    batch.py.push_back(y);
+    auto add_path = [&](int x, int y) {
+        if (job.skip(x, y)) return;
+        batch.samplers.emplace_back(*job.sampler, uint32_t(x), uint32_t(y), job.sample);
+        batch.states.emplace_back();
+        start_path<ImageSampler, kDepthOfField>(*job.ctx, batch.samplers.back(), x, y, batch.states.back());
+        batch.px.push_back(x);
+        batch.py.push_back(y);
+    };
+    auto end_packet = [&] {
+        if (int(batch.size()) > batch.packet_begin.back()) batch.packet_begin.push_back(int(batch.size()));
+    };
+    if (job.sampler->type() == SamplerType::Icpt) {
+        // ICPT: a packet is one Latin-hypercube subset of a region of 2 x 2
+        // blocks (n pixels per block, 4n rays), the pixels that share a
+        // sequence; a block's own pixels use n different sequences.
+        const int n = int(job.sampler->icpt_block_size());
+        std::vector<std::vector<std::pair<int, int>>> subsets(static_cast<size_t>(n));  // pixels of each subset
+        for (int ry = job.y0; ry < job.y1; ry += 2 * n)
+            for (int rx = job.x0; rx < job.x1; rx += 2 * n) {
+                for (auto& list : subsets) list.clear();
+                for (int y = ry; y < std::min(ry + 2 * n, job.y1); ++y)
+                    for (int x = rx; x < std::min(rx + 2 * n, job.x1); ++x)
+                        subsets[job.sampler->icpt_subset(uint32_t(x), uint32_t(y), job.sample)].emplace_back(x, y);
+                for (const auto& list : subsets) {
+                    for (const auto& [x, y] : list) add_path(x, y);
+                    end_packet();
                 }
-            if (int(batch.size()) > batch.packet_begin.back()) batch.packet_begin.push_back(int(batch.size()));
-        }
+            }
+    } else {
+        for (int by = job.y0; by < job.y1; by += job.packet_height)
+            for (int bx = job.x0; bx < job.x1; bx += job.packet_width) {
+                for (int y = by; y < std::min(by + job.packet_height, job.y1); ++y)
+                    for (int x = bx; x < std::min(bx + job.packet_width, job.x1); ++x) add_path(x, y);
+                end_packet();
+            }
+    }
     if (job.heatmaps) {
         batch.node_visits.assign(batch.size(), 0);
         batch.lanes.assign(batch.size(), 0);
@@ -110,28 +135,83 @@ void render_tile_packets(const TileJob& job, RenderStats& st) {
     }
 }
 
+// Streams: the tile's paths bounce by bounce, each bounce's rays of the
+// whole tile traced as one breadth-first stream (packet_paths.h).
+template <bool kGlass, bool kDepthOfField, bool kLights>
+void render_tile_streams(const TileJob& job, RenderStats& st) {
+    if (job.cancelled->load(std::memory_order_relaxed)) return;
+    PathBatch<ImageSampler> batch;
+    batch.clear();
+    for (int y = job.y0; y < job.y1; ++y)
+        for (int x = job.x0; x < job.x1; ++x) {
+            if (job.skip(x, y)) continue;
+            batch.samplers.emplace_back(*job.sampler, uint32_t(x), uint32_t(y), job.sample);
+            batch.states.emplace_back();
+            start_path<ImageSampler, kDepthOfField>(*job.ctx, batch.samplers.back(), x, y, batch.states.back());
+            batch.px.push_back(x);
+            batch.py.push_back(y);
+        }
+    StreamScratch scratch;
+    trace_batch_streams<ImageSampler, kGlass, kLights>(*job.ctx, batch, scratch, st);
+    // Streams keep no per-ray visit counts: the heatmaps stay empty (0).
+    for (size_t p = 0; p < batch.size(); ++p) job.add(batch.px[p], batch.py[p], batch.states[p].out, 0.0f, 1.0f, st);
+}
+
+// One WavefrontRenderer (and its wave buffers) per thread, kept across passes.
+struct WavefrontPool {
+    const PathContext* ctx;
+    WavefrontOptions options;
+    bool glass, depth_of_field, lights;
+    tbb::enumerable_thread_specific<std::unique_ptr<WavefrontRenderer>> per_thread;
+
+    WavefrontRenderer& local() {
+        std::unique_ptr<WavefrontRenderer>& w = per_thread.local();
+        if (!w) w = std::make_unique<WavefrontRenderer>(*ctx, options, glass, depth_of_field, lights);
+        return *w;
+    }
+};
+
+// Wavefront: the tile (a band of rows about wave_size pixels large) through
+// the staged pipeline of wavefront.h.
+void render_tile_wavefront(const TileJob& job, RenderStats& st) {
+    const bool heat = job.heatmaps;
+    job.wavefront->local().render_pass(
+        *job.sampler, job.sample, job.x0, job.y0, job.x1, job.y1, [&](int x, int y) { return job.skip(x, y); },
+        [&](int x, int y, const PathOutput& o, uint32_t visits) {
+            job.add(x, y, o, heat ? float(visits) : 0.0f, 1.0f, st);
+        },
+        st, job.cancelled);
+}
+
 using TileFn = void (*)(const TileJob&, RenderStats&);
 
-template <bool kPackets, bool G, bool D, bool L>
+template <Traversal kTraversal, bool G, bool D, bool L>
 constexpr TileFn tile_fn() {
-    if constexpr (kPackets) return &render_tile_packets<G, D, L>;
+    if constexpr (kTraversal == Traversal::Packet) return &render_tile_packets<G, D, L>;
+    else if constexpr (kTraversal == Traversal::Stream) return &render_tile_streams<G, D, L>;
     else return &render_tile<G, D, L>;
 }
 
-template <bool kPackets>
+template <Traversal kTraversal>
 TileFn select_kernel_for(bool glass, bool dof, bool lights) {
     static constexpr TileFn table[2][2][2] = {
-        {{tile_fn<kPackets, false, false, false>(), tile_fn<kPackets, false, false, true>()},
-         {tile_fn<kPackets, false, true, false>(), tile_fn<kPackets, false, true, true>()}},
-        {{tile_fn<kPackets, true, false, false>(), tile_fn<kPackets, true, false, true>()},
-         {tile_fn<kPackets, true, true, false>(), tile_fn<kPackets, true, true, true>()}},
+        {{tile_fn<kTraversal, false, false, false>(), tile_fn<kTraversal, false, false, true>()},
+         {tile_fn<kTraversal, false, true, false>(), tile_fn<kTraversal, false, true, true>()}},
+        {{tile_fn<kTraversal, true, false, false>(), tile_fn<kTraversal, true, false, true>()},
+         {tile_fn<kTraversal, true, true, false>(), tile_fn<kTraversal, true, true, true>()}},
     };
     return table[glass ? 1 : 0][dof ? 1 : 0][lights ? 1 : 0];
 }
 
 TileFn select_kernel(Traversal traversal, bool glass, bool dof, bool lights) {
-    return traversal == Traversal::Packet ? select_kernel_for<true>(glass, dof, lights)
-                                          : select_kernel_for<false>(glass, dof, lights);
+    switch (traversal) {
+        case Traversal::Packet: return select_kernel_for<Traversal::Packet>(glass, dof, lights);
+        case Traversal::Stream: return select_kernel_for<Traversal::Stream>(glass, dof, lights);
+        // The wavefront pipeline selects its own kernel variant (wavefront.h).
+        case Traversal::Wavefront: return &render_tile_wavefront;
+        case Traversal::Single: break;
+    }
+    return select_kernel_for<Traversal::Single>(glass, dof, lights);
 }
 
 }  // namespace
@@ -141,6 +221,7 @@ Renderer::Renderer(const Scene& scene, const RenderSettings& settings) : Rendere
 Renderer::Renderer(const Scene& scene, const RenderSettings& settings, std::shared_ptr<const Bvh> bvh)
     : scene_(scene), settings_(settings) {
     features_ = settings_.force_all_features ? SceneFeatures::all() : scene_.features;
+    settings_.traversal = settings_.resolved_traversal();  // never Auto from here on
     // Clamp the border to the frame; an empty border renders nothing.
     settings_.width = std::max(settings_.width, 1);
     settings_.height = std::max(settings_.height, 1);
@@ -153,15 +234,16 @@ Renderer::Renderer(const Scene& scene, const RenderSettings& settings, std::shar
     settings_.packet_width = std::clamp(settings_.packet_width, 1, 16);
     settings_.packet_height = std::clamp(settings_.packet_height, 1, 16);
     settings_.ao_samples = std::clamp(settings_.ao_samples, 1, 1024);
+    settings_.wave_size = std::clamp(settings_.wave_size, 1, 1 << 24);
     if (settings_.bvh_width != 2 && settings_.bvh_width != 4 && settings_.bvh_width != 8)
         throw std::invalid_argument("bvh_width must be 2, 4 or 8 (got " + std::to_string(settings_.bvh_width) + ")");
     if (!bvh) {  // the usual case: build over the scene's triangles
-        auto built = std::make_shared<Bvh>();
         BvhBuildOptions options;
         options.width = settings_.bvh_width;
-        built->build(scene_, options);
-        bvh = std::move(built);
+        bvh = build_bvh(scene_, options);
     }
+    if (!scene_.moving_triangles.empty())
+        motion_.build(scene_.vertices, scene_.motion_vertices, scene_.moving_triangles);
     bvh_ = std::move(bvh);
     film_ = Film(settings_.border_width(), settings_.border_height());
     if (settings_.heatmaps) film_.enable_heatmaps();
@@ -169,11 +251,27 @@ Renderer::Renderer(const Scene& scene, const RenderSettings& settings, std::shar
 
 Renderer::~Renderer() = default;
 
+std::shared_ptr<Bvh> Renderer::build_bvh(const Scene& scene, const BvhBuildOptions& options) {
+    auto bvh = std::make_shared<Bvh>();
+    if (scene.moving_triangles.empty()) {
+        bvh->build(scene, options);
+        return bvh;
+    }
+    // Moving triangles get non-finite corners here, which the build leaves
+    // out while keeping every other triangle's index.
+    std::vector<Vec3f> still = scene.vertices;
+    for (uint32_t t : scene.moving_triangles)
+        for (int k = 0; k < 3; ++k) still[3 * size_t(t) + k] = Vec3f(kInf);
+    bvh->build(still, options);
+    return bvh;
+}
+
 bool Renderer::render(const ProgressCallback& progress) {
     const auto start = Clock::now();
     const LightSet lights(scene_);
     PathContext ctx{&scene_, bvh_.get(), &lights, &settings_};
     ctx.ao_distance = resolve_ao_distance(settings_, scene_);
+    ctx.motion = motion_.empty() ? nullptr : &motion_;
     // The sampler's tables cover one pass (one sample over the image) and are
     // rebuilt per pass: a few KB, independent of resolution and spp.
     SamplerConfig sampler_config;
@@ -195,10 +293,33 @@ bool Renderer::render(const ProgressCallback& progress) {
     // Packet traversal: tiles hold whole packets (a multiple of the packet
     // size, about tile_size pixels on a side), so no packet straddles tiles.
     const bool packets = settings_.traversal == Traversal::Packet;
-    const int tw = packets ? settings_.packet_width * std::max(1, settings_.tile_size / settings_.packet_width)
-                           : settings_.tile_size;
-    const int th = packets ? settings_.packet_height * std::max(1, settings_.tile_size / settings_.packet_height)
-                           : settings_.tile_size;
+    int tw = packets ? settings_.packet_width * std::max(1, settings_.tile_size / settings_.packet_width)
+                     : settings_.tile_size;
+    int th = packets ? settings_.packet_height * std::max(1, settings_.tile_size / settings_.packet_height)
+                     : settings_.tile_size;
+    // ICPT packets are subsets of regions of 2 x 2 blocks of side n: tiles
+    // hold whole regions.
+    if (packets && settings_.resolved_sampler() == SamplerType::Icpt) {
+        const int region = 2 * std::min(settings_.packet_width, settings_.packet_height);
+        tw = th = region * std::max(1, settings_.tile_size / region);
+    }
+    // Streams amortise a node visit over the rays queued at it: bigger
+    // tiles (128 x 128 paths per stream).
+    if (settings_.traversal == Traversal::Stream) tw = th = 4 * settings_.tile_size;
+    // Wavefront: bands of whole rows holding about wave_size paths, at least
+    // two bands when the border has two rows (so both threads work).
+    std::unique_ptr<WavefrontPool> wavefront;
+    if (settings_.traversal == Traversal::Wavefront) {
+        tw = std::max(bw, 1);
+        th = std::clamp(settings_.wave_size / tw, 1, std::max(1, (bh + 1) / 2));
+        wavefront = std::make_unique<WavefrontPool>();
+        wavefront->ctx = &ctx;
+        wavefront->options = WavefrontOptions::from_settings(settings_);
+        wavefront->options.node_visits = settings_.heatmaps;
+        wavefront->glass = features_.glass;
+        wavefront->depth_of_field = dof;
+        wavefront->lights = use_lights;
+    }
     const int tiles_x = (bw + tw - 1) / tw, tiles_y = (bh + th - 1) / th;
     const int tiles = tiles_x * tiles_y;
     const int spp = std::max(settings_.spp, 0);
@@ -258,6 +379,7 @@ bool Renderer::render(const ProgressCallback& progress) {
                     job.packet_width = settings_.packet_width;
                     job.packet_height = settings_.packet_height;
                     job.assembly = settings_.assembly;
+                    job.wavefront = wavefront.get();
                     kernel(job, st);
                     const int done = tiles_done.fetch_add(1, std::memory_order_relaxed) + 1;
                     // Periodic progress within a long pass, always on the calling

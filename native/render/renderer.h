@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "../accel/bvh.h"
+#include "../accel/motion_bvh.h"
 #include "../film/film.h"
 #include "../scene/scene.h"
 #include "settings.h"
@@ -32,6 +33,9 @@ class Renderer {
 public:
     // The scene must be finalize()d and outlive the renderer. Builds the BVH.
     Renderer(const Scene& scene, const RenderSettings& settings);
+    // The BVH a Renderer of this scene traces: every triangle, except moving
+    // ones (motion blur), which a MotionBvh holds instead.
+    static std::shared_ptr<Bvh> build_bvh(const Scene& scene, const BvhBuildOptions& options = {});
     // Renders with a BVH already built over exactly this scene's triangles
     // (interactive sessions: camera, material, light and world edits leave
     // the triangles, and so the BVH, unchanged). Precondition: `bvh` was
@@ -50,6 +54,8 @@ public:
     bool cancelled() const { return cancelled_.load(std::memory_order_relaxed); }
 
     const Film& film() const { return film_; }
+    // The settings as resolved and clamped (traversal never Auto, border in the frame, ...).
+    const RenderSettings& settings() const { return settings_; }
     // Adaptive sampling: whether film pixel (x, y) stopped receiving samples.
     bool pixel_converged(int x, int y) const {
         return !converged_.empty() && converged_[size_t(y) * size_t(film_.width()) + size_t(x)] != 0;
@@ -63,6 +69,9 @@ public:
 private:
     const Scene& scene_;
     RenderSettings settings_;
+    // Object motion blur: the moving triangles (empty when nothing moves);
+    // they are left out of bvh_.
+    MotionBvh motion_;
     SceneFeatures features_;
     std::shared_ptr<const Bvh> bvh_;  // never null after construction
     Film film_;

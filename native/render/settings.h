@@ -73,8 +73,15 @@ struct RenderSettings {
 
     // Light transport and tracing (render_modes.h).
     Integrator integrator = Integrator::PathTrace;
-    Traversal traversal = Traversal::Single;
+    Traversal traversal = Traversal::Auto;  // resolved by the Renderer (render_modes.h)
     PacketAssembly assembly = PacketAssembly::RayType;
+    // Packet traversal: an assembled packet is traced as a packet only if
+    // its rays point the same way, |mean of unit directions| >= this;
+    // otherwise its rays go one at a time (incoherent packets, e.g. SPT
+    // bounces, trace at half the single-ray speed: docs/results/
+    // packet_traversal.md). 0 = always packets; > 1 = never. Same hits
+    // either way. Chosen by measurement (docs/results/coherent_paths.md).
+    float packet_min_coherence = 0.9f;
     int bvh_width = 8;                  // 2, 4 or 8 (single-ray and stream traversal)
     ReorderMode reorder = ReorderMode::None;  // wavefront only
     int wave_size = 1 << 16;            // wavefront: paths in flight per wave (bounds memory)
@@ -93,6 +100,7 @@ struct RenderSettings {
 
     int border_width() const { return (border_x1 < 0 ? width : border_x1) - border_x0; }
     SamplerType resolved_sampler() const { return resolve_sampler_type(sampler, progressive_display, spp); }
+    Traversal resolved_traversal() const { return resolve_traversal(traversal, resolved_sampler()); }
     int border_height() const { return (border_y1 < 0 ? height : border_y1) - border_y0; }
 };
 

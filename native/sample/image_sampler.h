@@ -51,6 +51,14 @@ public:
         return stream(px, py, sample).get(dim);
     }
     SamplerType type() const { return type_; }
+    // ICPT: the Latin-hypercube subset (which of the block's n sequences)
+    // pixel (px, py) uses in `sample`, and the block side n. Pixels of one
+    // subset across an ICPT region share every random number: the coherent
+    // packet of the paper's Fig. 3. (0 and 1 for the other samplers.)
+    uint32_t icpt_subset(uint32_t px, uint32_t py, uint32_t sample) const {
+        return type_ == SamplerType::Icpt ? icpt_.subset(px, py, sample) : 0;
+    }
+    uint32_t icpt_block_size() const { return type_ == SamplerType::Icpt ? icpt_.block_size() : 1; }
 
     static uint32_t icpt_block(const SamplerConfig& c) {
         const int n = c.packet_width < c.packet_height ? c.packet_width : c.packet_height;

@@ -90,8 +90,11 @@ struct PathDims {
     static constexpr uint32_t kPerBounce = 8;
     // Offsets within a bounce.
     static constexpr uint32_t kLightPick = 0, kLightU = 1, kLightV = 2;
-    static constexpr uint32_t kBsdfLobe = 3, kBsdfU = 4, kBsdfV = 5, kRoulette = 6, kLightExtra = 7;
+    static constexpr uint32_t kBsdfLobe = 3, kBsdfU = 4, kBsdfV = 5, kRoulette = 6, kSpare = 7;
     static constexpr uint32_t bounce(int b, uint32_t offset) { return kFirstBounce + uint32_t(b) * kPerBounce + offset; }
+    // The path's shutter time (motion blur) uses the first bounce's spare
+    // slot, so adding it moved no other decision's dimension.
+    static constexpr uint32_t kTime = kFirstBounce + kSpare;
     // Dimensions a path with at most `max_bounces` bounces can read: bounce
     // indices 0..max_bounces sample (the ray after the last one only collects
     // emission).

@@ -23,6 +23,7 @@ std::vector<std::string> SceneFeatures::names() const {
     add(glass, "glass");
     add(depth_of_field, "depth_of_field");
     add(world_light, "world_light");
+    add(motion_blur, "motion_blur");
     return n;
 }
 
@@ -30,7 +31,7 @@ SceneFeatures SceneFeatures::all() {
     SceneFeatures f;
     f.emissive_meshes = f.point_lights = f.spot_lights = f.sun_lights = f.area_lights = true;
     f.diffuse = f.glossy = f.specular = f.glass = true;
-    f.depth_of_field = f.world_light = true;
+    f.depth_of_field = f.world_light = f.motion_blur = true;
     return f;
 }
 
@@ -68,6 +69,7 @@ SceneFeatures compute_features(const Scene& scene) {
 
     f.depth_of_field = scene.camera.aperture_radius > 0.0f;
     f.world_light = !is_black(scene.world_color);
+    f.motion_blur = !scene.moving_triangles.empty();
     return f;
 }
 

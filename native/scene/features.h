@@ -21,6 +21,7 @@ struct SceneFeatures {
     bool glass = false;            // transmission lobe
     bool depth_of_field = false;   // camera aperture > 0
     bool world_light = false;      // non-black world colour
+    bool motion_blur = false;      // some triangle moves during the shutter
 
     bool any_light() const {
         return emissive_meshes || point_lights || spot_lights || sun_lights || area_lights || world_light;

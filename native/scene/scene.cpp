@@ -4,6 +4,7 @@
 // world-space triangles with valid material indices.
 #include "scene.h"
 
+#include <algorithm>
 #include <cmath>
 #include <sstream>
 
@@ -87,18 +88,34 @@ size_t Scene::add_mesh(const MeshInput& mesh) {
 
     const Transform& xf = mesh.object_to_world;
     const NormalTransform normal_xf(xf);
+    const Transform& xf_close = mesh.moves ? mesh.object_to_world_close : xf;
+    const NormalTransform normal_xf_close(xf_close);
     // A mirroring transform reverses the winding; swap two corners so the
     // geometric normal keeps pointing to the side the shading normals face.
     const bool mirror = determinant3(xf) < 0.0f;
 
     // Transform each vertex once; a vertex that is non-finite in either space is unusable.
-    std::vector<Vec3f> world(mesh.vertex_count);
+    // With motion, a vertex must be finite at both ends of the shutter.
+    std::vector<Vec3f> world(mesh.vertex_count), world_close;
     std::vector<uint8_t> finite(mesh.vertex_count);
+    if (mesh.moves) world_close.resize(mesh.vertex_count);
     for (size_t i = 0; i < mesh.vertex_count; ++i) {
         const Vec3f p{mesh.positions[3 * i], mesh.positions[3 * i + 1], mesh.positions[3 * i + 2]};
         world[i] = xf.point(p);
         finite[i] = is_finite(p) && is_finite(world[i]);
+        if (mesh.moves) {
+            const float* src = mesh.positions_close ? mesh.positions_close : mesh.positions;
+            const Vec3f pc{src[3 * i], src[3 * i + 1], src[3 * i + 2]};
+            world_close[i] = xf_close.point(pc);
+            finite[i] = finite[i] && is_finite(pc) && is_finite(world_close[i]);
+        }
     }
+    // The first moving mesh turns motion on: earlier triangles stand still.
+    if (mesh.moves && motion_vertices.empty()) {
+        motion_vertices = vertices;
+        motion_normals = normals;
+    }
+    const bool track_motion = mesh.moves || !motion_vertices.empty();
 
     size_t nonfinite = 0, out_of_range = 0, degenerate = 0, bad_material = 0, added = 0;
     for (size_t t = 0; t < mesh.triangle_count; ++t) {
@@ -154,6 +171,23 @@ size_t Scene::add_mesh(const MeshInput& mesh) {
         normals.push_back(n[0]);
         normals.push_back(n[1]);
         normals.push_back(n[2]);
+        if (track_motion) {
+            for (int k = 0; k < 3; ++k) {
+                if (!mesh.moves) {
+                    motion_vertices.push_back(vertices[vertices.size() - 3 + k]);
+                    motion_normals.push_back(n[k]);
+                    continue;
+                }
+                motion_vertices.push_back(world_close[idx[corner[k]]]);
+                Vec3f nc = n[k];
+                if (real_normals && normal_xf_close.valid) {
+                    const float* src = mesh.normals + 9 * t + 3 * corner[k];
+                    const Vec3f wn = normal_xf_close.apply(Vec3f{src[0], src[1], src[2]});
+                    if (is_finite(wn)) nc = wn;
+                }
+                motion_normals.push_back(nc);
+            }
+        }
         has_normals.push_back(real_normals ? 1 : 0);
         material_of.push_back(material);
         ++added;
@@ -184,6 +218,27 @@ void Scene::finalize() {
         geometric_normals[t] = normalize(cross(vertices[3 * t + 1] - vertices[3 * t], vertices[3 * t + 2] - vertices[3 * t]));
         if (materials[material_of[t]].is_emissive()) emissive_triangles.push_back(uint32_t(t));
     }
+    moving_triangles.clear();
+    moving_flag.clear();
+    if (motion_vertices.size() == vertices.size() && !vertices.empty()) {
+        moving_flag.assign(n, 0);
+        for (size_t t = 0; t < n; ++t)
+            for (int k = 0; k < 3; ++k)
+                if (motion_vertices[3 * t + k].x != vertices[3 * t + k].x ||
+                    motion_vertices[3 * t + k].y != vertices[3 * t + k].y ||
+                    motion_vertices[3 * t + k].z != vertices[3 * t + k].z)
+                    moving_flag[t] = 1;
+        for (size_t t = 0; t < n; ++t)
+            if (moving_flag[t]) moving_triangles.push_back(uint32_t(t));
+        if (moving_triangles.empty()) moving_flag.clear();
+    }
+    // Moving emitters are not sampled by next-event estimation (the light
+    // sampler knows one pose only); paths still reach them by BSDF sampling,
+    // with full weight (triangle_pdf is 0 for a triangle not in this list).
+    if (!moving_flag.empty())
+        emissive_triangles.erase(std::remove_if(emissive_triangles.begin(), emissive_triangles.end(),
+                                                [&](uint32_t t) { return moving_flag[t] != 0; }),
+                                 emissive_triangles.end());
     features = compute_features(*this);
 }
 

@@ -43,6 +43,13 @@ struct MeshInput {
     const uint32_t* material_ids = nullptr;  // optional: triangle_count entries, index into `material_slots`
     std::vector<uint32_t> material_slots;    // scene material index per slot; empty => default material 0
     Transform object_to_world;
+    // Object motion blur (optional): the mesh at shutter close. Positions
+    // (vertex_count x 3, object space; null = the same as `positions`) and
+    // transform; the mesh moves linearly from (positions, object_to_world)
+    // at shutter open to these. Normals follow the close transform.
+    const float* positions_close = nullptr;
+    bool moves = false;  // true when positions_close or object_to_world_close applies
+    Transform object_to_world_close;
 };
 
 struct Scene {
@@ -53,6 +60,12 @@ struct Scene {
     std::vector<uint32_t> material_of;  // 1 per triangle
     std::vector<uint32_t> object_of;    // 1 per triangle: index into object_names
     std::vector<std::string> object_names;
+    // Object motion blur: every triangle's corners (and shading normals) at
+    // shutter close, parallel to `vertices` / `normals`; empty when nothing
+    // moves. `vertices` are the positions at shutter open; a triangle moves
+    // linearly between the two over the shutter (ray time 0 to 1).
+    std::vector<Vec3f> motion_vertices;
+    std::vector<Vec3f> motion_normals;
 
     std::vector<Material> materials;    // materials[0] always exists (default grey diffuse)
     std::vector<Light> lights;
@@ -74,10 +87,15 @@ struct Scene {
 
     // Computed by finalize(); valid until the scene changes.
     SceneFeatures features;
-    // Emissive triangles, for next-event estimation.
+    // Emissive triangles, for next-event estimation (static ones: a moving
+    // emitter is reached by BSDF sampling only).
     std::vector<uint32_t> emissive_triangles;
     // Per-triangle world-space geometric normal (unit, from the winding), filled by finalize().
     std::vector<Vec3f> geometric_normals;
+    // Triangles whose close corners differ from their open ones (motion blur).
+    std::vector<uint32_t> moving_triangles;
+    bool is_moving(uint32_t tri) const { return !moving_flag.empty() && moving_flag[tri] != 0; }
+    std::vector<uint8_t> moving_flag;  // 1 per triangle when any moves, else empty
     void finalize();
 };
 

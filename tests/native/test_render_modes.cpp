@@ -121,6 +121,35 @@ TEST(RenderModes, PacketsGiveTheSingleRayImageForEveryIntegratorSamplerAndAssemb
         }
 }
 
+TEST(RenderModes, StreamsAndWavefrontGiveTheSingleRayImage) {
+    const Scene scene = modes_scene(true);
+    for (Integrator integrator : kIntegrators)
+        for (SamplerType sampler : {SamplerType::Spt, SamplerType::Cpt}) {
+            const std::string what =
+                std::string(integrator_name(integrator)) + "/" + std::string(sampler_type_name(sampler));
+            const auto single = render(scene, modes_settings(integrator, Traversal::Single, sampler));
+            expect_same_image(single, render(scene, modes_settings(integrator, Traversal::Stream, sampler)),
+                              what + " stream");
+            for (ReorderMode reorder : {ReorderMode::None, ReorderMode::Static1D, ReorderMode::Static3D,
+                                        ReorderMode::Hash32, ReorderMode::Hash192, ReorderMode::Csd32})
+                for (int wave : {97, 1 << 16}) {  // several waves per pass, and one
+                    RenderSettings rs = modes_settings(integrator, Traversal::Wavefront, sampler);
+                    rs.reorder = reorder;
+                    rs.wave_size = wave;
+                    expect_same_image(single, render(scene, rs),
+                                      what + " wavefront " + std::string(reorder_name(reorder)) + " wave " +
+                                          std::to_string(wave));
+                }
+        }
+    // Every tree width traces the same hits.
+    for (int width : {2, 4}) {
+        RenderSettings rs = modes_settings(Integrator::PathTrace, Traversal::Single, SamplerType::Spt);
+        const auto eight = render(scene, rs);
+        rs.bvh_width = width;
+        expect_same_image(eight, render(scene, rs), "bvh width " + std::to_string(width));
+    }
+}
+
 TEST(RenderModes, IntegratorsAreThePathTracerWithTheirBounceRules) {
     // Ray casting is direct light at the first hit: path tracing with Max
     // Bounces 0. Distribution ray tracing drops diffuse interreflection:
@@ -259,7 +288,7 @@ TEST(RenderModes, HeatmapsHoldNodeVisitsAndUtilisation) {
 
 TEST(RenderModes, PerBounceStatisticsAddUpToTheTotals) {
     const Scene scene = modes_scene(false);
-    for (Traversal traversal : {Traversal::Single, Traversal::Packet}) {
+    for (Traversal traversal : {Traversal::Single, Traversal::Packet, Traversal::Stream, Traversal::Wavefront}) {
         RenderStats st;
         render(scene, modes_settings(Integrator::PathTrace, traversal, SamplerType::Cpt), &st);
         BounceStats sum;
