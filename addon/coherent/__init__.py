@@ -23,7 +23,7 @@ bl_info = {
 if "bpy" in locals():
     import importlib
 
-    for _name in ("materials", "export", "viewport", "properties", "engine", "ui"):
+    for _name in ("materials", "export", "viewport", "properties", "engine", "ui", "quality"):
         if _name in locals():
             importlib.reload(locals()[_name])
 
@@ -32,7 +32,7 @@ import sys
 
 import bpy
 
-from . import engine, export, materials, properties, ui, viewport
+from . import engine, export, materials, properties, quality, ui, viewport
 
 _native = None
 _native_error = None
@@ -68,6 +68,7 @@ def register():
     properties.register()
     bpy.utils.register_class(engine.CoherentRenderEngine)
     ui.register()
+    quality.register()  # after ui: its panel is a child of the sampling panel
     _registered = True
     try:
         native_module()
@@ -82,6 +83,7 @@ def unregister():
     global _registered
     if not _registered:
         return
+    quality.unregister()
     ui.unregister()
     bpy.utils.unregister_class(engine.CoherentRenderEngine)
     properties.unregister()

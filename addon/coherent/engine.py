@@ -23,7 +23,7 @@ import traceback
 import bpy
 import numpy as np
 
-from . import export, viewport
+from . import export, motion, viewport
 
 # Seconds between progressive updates of the displayed image.
 PREVIEW_INTERVAL = 0.5
@@ -34,7 +34,44 @@ _PASSES = {
     "Depth": ("Z", "VALUE"),
     "Normal": ("XYZ", "VECTOR"),
     "Error": ("X", "VALUE"),
+    # Diagnostic heatmaps (scene.coherent.use_pass_bvh_visits / use_pass_simd_utilisation).
+    "BVH Visits": ("X", "VALUE"),
+    "SIMD Utilisation": ("X", "VALUE"),
 }
+
+# Integrator and traversal as the Info report names them.
+_INTEGRATOR_NAMES = {"pt": "path tracing", "drt": "distribution ray tracing", "wrt": "Whitted ray tracing",
+                     "rcs": "ray casting", "ao": "ambient occlusion"}
+_TRAVERSAL_NAMES = {"single": "single rays", "packet": "packets", "stream": "ray streams",
+                    "wavefront": "wavefront"}
+
+
+def _format_percent(value):
+    return "n/a" if value is None else f"{100.0 * value:.1f} %"
+
+
+def tracing_summary(settings, stats):
+    """One line naming the integrator and traversal of a render and, when
+    packets were traced, their SIMD utilisation, e.g.
+    "Coherent: path tracing, packets 4x4 (ray types), SIMD utilisation: boxes 91.2 %, triangles 63.0 %".
+
+    `settings` is Renderer.settings, `stats` Renderer.stats().
+    """
+    integrator = _INTEGRATOR_NAMES.get(settings["integrator"], settings["integrator"])
+    traversal = settings["traversal"]
+    text = f"Coherent: {integrator}, {_TRAVERSAL_NAMES.get(traversal, traversal)}"
+    if traversal == "packet":
+        w, h = settings["packet"]
+        text += f" {w}x{h} ({'ray types' if settings['assembly'] == 'types' else 'runs'})"
+    elif traversal in ("single", "stream"):
+        text += f", BVH width {settings['bvh_width']}"
+    elif traversal == "wavefront":
+        text += f" (reorder {settings['reorder']}, waves of {settings['wave_size']:,})"
+    simd = stats.get("simd_utilisation") or {}
+    if simd.get("box") is not None or simd.get("triangle") is not None:
+        text += (f", SIMD utilisation: boxes {_format_percent(simd.get('box'))}, "
+                 f"triangles {_format_percent(simd.get('triangle'))}")
+    return text
 
 
 def _format_time(seconds):
@@ -166,6 +203,11 @@ class CoherentRenderEngine(bpy.types.RenderEngine):
         # Scene-wide, not per view layer: the estimate belongs to the render.
         if scene is not None and scene.coherent.use_pass_error:
             self.register_pass(scene, renderlayer, "Error", 1, "X", "VALUE")
+        # Heatmaps, scene-wide like Error: they describe how the render traced.
+        if scene is not None and scene.coherent.use_pass_bvh_visits:
+            self.register_pass(scene, renderlayer, "BVH Visits", 1, "X", "VALUE")
+        if scene is not None and scene.coherent.use_pass_simd_utilisation:
+            self.register_pass(scene, renderlayer, "SIMD Utilisation", 1, "X", "VALUE")
 
     # -- final render -------------------------------------------------------------
 
@@ -206,9 +248,14 @@ class CoherentRenderEngine(bpy.types.RenderEngine):
             width, height = self.resolution_x, self.resolution_y
         border = border_pixels(render, width, height)
 
+        moving = {}
+        if render.use_motion_blur:
+            self.update_stats("", "Motion blur: evaluating the shutter")
+            moving = motion.shutter_matrices(self, depsgraph, export.MOTION_TYPES)
         self.update_stats("", "Exporting scene")
         exported = export.export_scene(native, depsgraph, width, height,
-                                       camera_override=self.camera_override, cancelled=self.test_break)
+                                       camera_override=self.camera_override, cancelled=self.test_break,
+                                       motion=moving)
         for warning in exported.warnings:
             self._warn(warning)
         if self.test_break():
@@ -252,6 +299,9 @@ class CoherentRenderEngine(bpy.types.RenderEngine):
                    f"in {stats['seconds']:.2f} s")
         print(summary)
         self.report({"INFO"}, summary)
+        tracing = tracing_summary(renderer.settings, stats)
+        print(tracing)
+        self.report({"INFO"}, tracing)
         if stats.get("nonfinite_samples"):
             self._warn(f"{stats['nonfinite_samples']} samples were NaN/Inf and discarded")
         if finished and props.write_convergence:

@@ -60,6 +60,92 @@ class CoherentRenderSettings(bpy.types.PropertyGroup):
                                         "of the shorter side",
         size=2, default=(4, 4), min=1, max=16)
 
+    # Adaptive sampling (final renders and the viewport).
+    use_adaptive_sampling: BoolProperty(
+        name="Adaptive Sampling", description="Stop sampling a pixel once its estimated relative error, and its "
+                                              "3x3 neighbours', is below the noise threshold",
+        default=False)
+    adaptive_threshold: FloatProperty(
+        name="Noise Threshold", description="Relative per-pixel error (estimated from the even and odd sample "
+                                            "passes) at which a pixel stops taking samples",
+        default=0.01, min=0.0001, max=1.0, soft_max=0.1, step=0.1, precision=4)
+    adaptive_min_samples: IntProperty(
+        name="Min Samples", description="Samples every pixel takes before adaptive sampling may stop it "
+                                        "(rounded up to an even number)",
+        default=16, min=2, max=1 << 24, soft_max=4096)
+
+    # Light transport and tracing (native/render/render_modes.h). Enum
+    # identifiers are the native names in upper case: renderer_kwargs lowers them.
+    integrator: EnumProperty(
+        name="Integrator", description="Which light transport is computed",
+        items=(
+            ("PT", "Path Tracing", "Full global illumination: path tracing with next-event estimation and "
+                                   "multiple importance sampling"),
+            ("DRT", "Distribution", "Distribution ray tracing: soft shadows from area lights, glossy "
+                                    "reflection and refraction, depth of field; no diffuse interreflection"),
+            ("WRT", "Whitted", "Whitted ray tracing: direct light, paths continue through mirrors and "
+                               "glass only"),
+            ("RCS", "Ray Casting", "Ray casting with shadows: direct light at the first hit only"),
+            ("AO", "Ambient Occlusion", "Fraction of cosine-distributed rays from the first hit that escape "
+                                        "within the AO distance (white = unoccluded)"),
+        ),
+        default="PT")
+    traversal: EnumProperty(
+        name="Traversal", description="How rays are traced through the BVH; every mode finds the same hits",
+        items=(
+            ("AUTO", "Auto", "Packets with the CPT sampler (where they pay, measured), single rays otherwise"),
+            ("SINGLE", "Single Rays", "One ray at a time over a BVH of the chosen width"),
+            ("PACKET", "Packets", "SIMD packets of the rays of Packet Size pixels, secondary rays assembled "
+                                  "by Assembly"),
+            ("STREAM", "Streams", "Breadth-first ray streams with per-node ray queues over the wide BVH"),
+            ("WAVEFRONT", "Wavefront", "Staged pipeline (generate, extend, reorder, shade, shadow) over waves "
+                                       "of paths, reordered by Reorder"),
+        ),
+        default="AUTO")
+    assembly: EnumProperty(
+        name="Assembly", description="Packet traversal: how secondary rays are grouped into packets",
+        items=(
+            ("TYPES", "Ray Types", "One packet per ray type (shadow, diffuse, glossy, reflection, refraction)"),
+            ("RUNS", "Runs", "Consecutive rays of the same type in pixel order form a packet"),
+        ),
+        default="TYPES")
+    bvh_width: EnumProperty(
+        name="BVH Width", description="Branching factor of the BVH for single-ray and stream traversal",
+        items=(("2", "2", "Binary BVH"), ("4", "4", "4-wide BVH"), ("8", "8", "8-wide BVH")),
+        default="8")
+    reorder: EnumProperty(
+        name="Reorder", description="Wavefront traversal: how rays are sorted for coherence before tracing",
+        items=(
+            ("NONE", "None", "Trace rays in the order paths produced them"),
+            ("STATIC1D", "Static 1D", "Pixel order along a Morton curve"),
+            ("STATIC3D", "Static 3D", "Morton order of the ray origins"),
+            ("HASH32", "Hash 32", "32-bit keys of origin and direction bits, radix sorted"),
+            ("HASH192", "Hash 192", "192-bit keys of origin and direction bits, radix sorted"),
+            ("CSD32", "CSD 32", "Compress-sort-decompress of 32-bit keys"),
+        ),
+        default="NONE")
+    wave_size: IntProperty(
+        name="Wave Size", description="Wavefront traversal: paths in flight per wave (bounds memory)",
+        default=1 << 16, min=1, max=1 << 24, soft_min=1024, soft_max=1 << 20)
+    ao_samples: IntProperty(
+        name="AO Samples", description="Ambient occlusion: occlusion rays per camera sample",
+        default=16, min=1, max=4096, soft_max=256)
+    ao_distance: FloatProperty(
+        name="AO Distance", description="Ambient occlusion: length of occlusion rays; 0 = a tenth of the "
+                                        "scene's bounding-box diagonal",
+        default=0.0, min=0.0, soft_max=100.0, subtype="DISTANCE", unit="LENGTH")
+
+    # Diagnostic heatmap passes (view layer panel).
+    use_pass_bvh_visits: BoolProperty(
+        name="BVH Visits", description="Write a 'BVH Visits' pass: BVH node visits per camera sample, all "
+                                       "rays of the sample's path (where traversal is expensive)",
+        default=False)
+    use_pass_simd_utilisation: BoolProperty(
+        name="SIMD Utilisation", description="Write a 'SIMD Utilisation' pass: the mean fraction, 0..1, of "
+                                             "SIMD lanes holding an active ray in the packets that traced the "
+                                             "pixel (where coherence is lost); 1 for single rays",
+        default=False)
+
     max_bounces: IntProperty(
         name="Total", description="Maximum number of bounces of any kind",
         default=12, min=0, max=1024)
@@ -83,10 +169,13 @@ class CoherentRenderSettings(bpy.types.PropertyGroup):
 
     def renderer_kwargs(self, scene):
         """Keyword arguments of _coherent.Renderer that the final render and
-        the viewport share: light paths, threads, tiles, film and sampler.
+        the viewport share: light paths, threads, tiles, film, sampler,
+        adaptive sampling, integrator and traversal, and whether the heatmap
+        passes are filled.
 
         Front ends add size, samples, seed and progressive_display (True in
-        the viewport, which makes AUTO pick ICPT).
+        the viewport, which makes AUTO pick ICPT); the viewport turns
+        heatmaps off (it shows Combined only).
         """
         threads = self.threads
         if threads == 0 and scene.render.threads_mode == "FIXED":
@@ -94,7 +183,13 @@ class CoherentRenderSettings(bpy.types.PropertyGroup):
         return dict(threads=threads, max_bounces=self.max_bounces, diffuse_bounces=self.diffuse_bounces,
                     glossy_bounces=self.glossy_bounces, transmission_bounces=self.transmission_bounces,
                     transparent=scene.render.film_transparent, tile_size=self.tile_size,
-                    sampler=self.sampler.lower(), packet=(int(self.packet_size[0]), int(self.packet_size[1])))
+                    sampler=self.sampler.lower(), packet=(int(self.packet_size[0]), int(self.packet_size[1])),
+                    adaptive=self.use_adaptive_sampling, adaptive_threshold=self.adaptive_threshold,
+                    adaptive_min_samples=self.adaptive_min_samples,
+                    integrator=self.integrator.lower(), traversal=self.traversal.lower(),
+                    assembly=self.assembly.lower(), bvh_width=int(self.bvh_width), reorder=self.reorder.lower(),
+                    wave_size=self.wave_size, ao_samples=self.ao_samples, ao_distance=self.ao_distance,
+                    heatmaps=self.use_pass_bvh_visits or self.use_pass_simd_utilisation)
 
     def seed_for_frame(self, frame):
         """The sampler seed for `frame`: constant unless use_animated_seed."""

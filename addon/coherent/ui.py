@@ -50,7 +50,68 @@ class RENDER_PT_coherent_sampling(CoherentButtonsPanel, bpy.types.Panel):
         row.prop(props, "use_animated_seed", text="", icon="TIME")
         col = layout.column()
         col.prop(props, "sampler")
-        col.prop(props, "packet_size")
+        sub = col.column()
+        sub.active = props.sampler != "SPT"  # CPT/ICPT share sequences per packet
+        sub.prop(props, "packet_size")
+
+
+class RENDER_PT_coherent_adaptive(CoherentButtonsPanel, bpy.types.Panel):
+    bl_label = "Adaptive Sampling"
+    bl_context = "render"
+    bl_parent_id = "RENDER_PT_coherent_sampling"
+
+    def draw_header(self, context):
+        self.layout.prop(context.scene.coherent, "use_adaptive_sampling", text="")
+
+    def draw(self, context):
+        layout = self.layout
+        layout.use_property_split = True
+        layout.use_property_decorate = False
+        props = context.scene.coherent
+        col = layout.column(align=True)
+        col.active = props.use_adaptive_sampling
+        col.prop(props, "adaptive_threshold", text="Noise Threshold")
+        col.prop(props, "adaptive_min_samples", text="Min Samples")
+
+
+class RENDER_PT_coherent_tracing(CoherentButtonsPanel, bpy.types.Panel):
+    """Light transport and ray traversal: what is computed, and how rays are traced.
+
+    Settings that do not apply to the current choice stay visible but
+    inactive (greyed out), so the layout does not jump around.
+    """
+    bl_label = "Tracing"
+    bl_context = "render"
+
+    def draw(self, context):
+        layout = self.layout
+        layout.use_property_split = True
+        layout.use_property_decorate = False
+        props = context.scene.coherent
+
+        col = layout.column()
+        col.prop(props, "integrator")
+        sub = col.column(align=True)
+        sub.active = props.integrator == "AO"
+        sub.prop(props, "ao_samples", text="AO Samples")
+        sub.prop(props, "ao_distance", text="AO Distance")
+
+        col = layout.column()
+        col.prop(props, "traversal")
+        packet = props.traversal in {"PACKET", "AUTO"}
+        sub = col.column(align=True)
+        sub.active = packet or props.sampler != "SPT"  # also the CPT/ICPT sequence blocks
+        sub.prop(props, "packet_size")
+        sub = col.column()
+        sub.active = packet
+        sub.prop(props, "assembly")
+        sub = col.column()
+        sub.active = props.traversal in {"AUTO", "SINGLE", "STREAM"}
+        sub.row().prop(props, "bvh_width", expand=True)
+        sub = col.column(align=True)
+        sub.active = props.traversal == "WAVEFRONT"
+        sub.prop(props, "reorder")
+        sub.prop(props, "wave_size")
 
 
 class RENDER_PT_coherent_light_paths(CoherentButtonsPanel, bpy.types.Panel):
@@ -161,10 +222,15 @@ class VIEWLAYER_PT_coherent_passes(CoherentButtonsPanel, bpy.types.Panel):
         col.prop(view_layer, "use_pass_z")
         col.prop(view_layer, "use_pass_normal")
         col.prop(context.scene.coherent, "use_pass_error")
+        col = layout.column(heading="Diagnostics", align=True)
+        col.prop(context.scene.coherent, "use_pass_bvh_visits")
+        col.prop(context.scene.coherent, "use_pass_simd_utilisation")
 
 
 classes = (
     RENDER_PT_coherent_sampling,
+    RENDER_PT_coherent_adaptive,
+    RENDER_PT_coherent_tracing,
     RENDER_PT_coherent_light_paths,
     RENDER_PT_coherent_film,
     RENDER_PT_coherent_performance,

@@ -345,9 +345,12 @@ class ViewportSession:
         width, height = max(1, region.width // pixel_size), max(1, region.height // pixel_size)
         props = scene.coherent
         camera = view_camera(context.region_data, scene, depsgraph, width, height)
+        # Every setting the Renderer gets (integrator, traversal, sampler, ...)
+        # restarts the view when changed; heatmaps are off in the viewport.
+        kwargs = props.renderer_kwargs(scene)
+        kwargs.pop("heatmaps", None)
         view_key = (self.scene_version, width, height, tuple(sorted(camera.items())), props.preview_samples,
-                    props.seed, props.max_bounces, props.diffuse_bounces, props.glossy_bounces,
-                    props.transmission_bounces, scene.render.film_transparent, props.tile_size)
+                    props.seed, tuple(sorted(kwargs.items())))
         if view_key != self.view_key:
             self._restart(scene, camera, width, height, view_key)
         elif self.renderer is not None and not self.renderer.running and self.stage + 1 < len(self.stages):
@@ -407,8 +410,10 @@ class ViewportSession:
             self.stop_renderer_only()
         props = scene.coherent
         divisor, samples = self.stages[self.stage]
-        kwargs = dict(width=max(1, math.ceil(self.width / divisor)), height=max(1, math.ceil(self.height / divisor)),
-                      spp=samples, seed=props.seed, progressive_display=True, **props.renderer_kwargs(scene))
+        kwargs = props.renderer_kwargs(scene)
+        kwargs.update(width=max(1, math.ceil(self.width / divisor)), height=max(1, math.ceil(self.height / divisor)),
+                      spp=samples, seed=props.seed, progressive_display=True,
+                      heatmaps=False)  # the viewport draws Combined only: no counters to pay for
         if not self.scene.has_bvh:
             # Built here rather than by the Renderer to choose its quality;
             # every later Renderer over these triangles reuses it.

@@ -3,6 +3,32 @@
 #include <nlohmann/json.hpp>
 
 namespace coherent::cli {
+namespace {
+
+// A ratio, or null when the denominator is 0 (nothing was measured, which
+// is not the same as a measured 0).
+nlohmann::ordered_json ratio(uint64_t num, uint64_t den) {
+    if (den == 0) return nullptr;
+    return double(num) / double(den);
+}
+
+nlohmann::ordered_json bounce_json(int index, const BounceStats& b) {
+    nlohmann::ordered_json j;
+    j["bounce"] = index;
+    j["rays"] = b.rays;
+    j["node_visits"] = b.node_visits;
+    j["box_tests"] = b.box_tests;
+    j["triangle_tests"] = b.triangle_tests;
+    j["node_visits_per_ray"] = ratio(b.node_visits, b.rays);
+    j["box_tests_per_ray"] = ratio(b.box_tests, b.rays);
+    j["triangle_tests_per_ray"] = ratio(b.triangle_tests, b.rays);
+    j["simd_box_utilisation"] = ratio(b.box_lanes_active, b.box_lanes);
+    j["simd_triangle_utilisation"] = ratio(b.triangle_lanes_active, b.triangle_lanes);
+    j["and_deeper"] = index == kStatBounces - 1;
+    return j;
+}
+
+}  // namespace
 
 std::string render_report_json(const RenderReport& r) {
     nlohmann::ordered_json j;
@@ -53,6 +79,54 @@ std::string render_report_json(const RenderReport& r) {
     j["sampler"] = std::string(sampler_type_name(r.settings.resolved_sampler()));  // Auto resolved
     j["packet"] = {r.settings.packet_width, r.settings.packet_height};
     j["sequences"] = std::string(sequence_scope_name(r.settings.sequence_scope));
+
+    // Tracing configuration (render_modes.h) and what it cost.
+    const RenderSettings& s = r.settings;
+    j["integrator"] = std::string(integrator_name(s.integrator));
+    j["traversal"] = std::string(traversal_name(s.traversal));
+    j["assembly"] = std::string(assembly_name(s.assembly));
+    j["bvh_width"] = s.bvh_width;
+    j["reorder"] = std::string(reorder_name(s.reorder));
+    j["wave_size"] = s.wave_size;
+    j["ao_samples"] = s.ao_samples;
+    j["ao_distance"] = s.ao_distance;
+    j["rays_per_second"] = r.seconds > 0.0 ? double(r.stats.total_rays()) / r.seconds : 0.0;
+    j["trace_seconds"] = r.stats.trace_seconds;
+    j["sort_seconds"] = r.stats.sort_seconds;
+
+    BounceStats all;
+    int last = -1;  // last bounce with rays
+    for (int i = 0; i < kStatBounces; ++i) {
+        all += r.stats.bounces[size_t(i)];
+        if (r.stats.bounces[size_t(i)].rays) last = i;
+    }
+    // Per-ray work from the per-bounce counters, or from the renderer's
+    // overall traversal counters where it keeps no per-bounce ones.
+    if (all.rays == 0) {
+        all.rays = r.stats.traversal.rays;
+        all.node_visits = r.stats.traversal.node_visits;
+        all.box_tests = r.stats.traversal.box_tests;
+        all.triangle_tests = r.stats.traversal.triangle_tests;
+    }
+    j["tests_per_ray"] = {{"node_visits", ratio(all.node_visits, all.rays)},
+                          {"box", ratio(all.box_tests, all.rays)},
+                          {"triangle", ratio(all.triangle_tests, all.rays)}};
+    j["simd_utilisation"] = {{"box", ratio(all.box_lanes_active, all.box_lanes)},
+                             {"triangle", ratio(all.triangle_lanes_active, all.triangle_lanes)}};
+    nlohmann::ordered_json bounces = nlohmann::ordered_json::array();
+    for (int i = 0; i <= last; ++i) bounces.push_back(bounce_json(i, r.stats.bounces[size_t(i)]));
+    j["bounces"] = bounces;
+
+    if (r.heatmaps.empty()) {
+        j["heatmaps"] = nullptr;
+    } else {
+        nlohmann::ordered_json heat = nlohmann::ordered_json::object();
+        for (const HeatmapImage& h : r.heatmaps)
+            heat[h.pass == PassType::NodeVisits ? "bvh_visits" : "simd"] = {
+                {"exr", h.exr_path}, {"png", h.png_path}, {"scale", {h.lo, h.hi}},
+                {"min", h.min},      {"max", h.max},      {"mean", h.mean}};
+        j["heatmaps"] = heat;
+    }
     // Non-UTF-8 bytes (e.g. in a file name) are replaced instead of throwing.
     return j.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
 }

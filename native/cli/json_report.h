@@ -2,7 +2,9 @@
 #pragma once
 
 #include <string>
+#include <vector>
 
+#include "heatmap_output.h"
 #include "render/settings.h"
 #include "render/stats.h"
 #include "scene/features.h"
@@ -20,6 +22,7 @@ struct RenderReport {
     SceneFeatures features;      // the renderer's active features
     size_t triangles = 0;
     std::string output;
+    std::vector<HeatmapImage> heatmaps;  // --heatmaps: the files written
 };
 
 // One JSON object, one line:
@@ -27,7 +30,17 @@ struct RenderReport {
 //  "error_estimate" (relative RMSE estimate or null), "target_error",
 //  "time_limit", "width", "height", "rays": {<type>: n, ..., "total": n},
 //  "mrays_per_s", "dropped": {...}, "nonfinite_samples", "features": [...],
-//  "output", plus "load_seconds", "build_seconds", "triangles", "seed", "threads", "max_bounces"}.
+//  "output", plus "load_seconds", "build_seconds", "triangles", "seed", "threads", "max_bounces",
+//  "sampler", "packet", "sequences",
+//  the tracing configuration: "integrator", "traversal", "assembly", "bvh_width", "reorder", "wave_size",
+//  "ao_samples", "ao_distance", and its statistics: "rays_per_second", "trace_seconds", "sort_seconds",
+//  "tests_per_ray" {"node_visits", "box", "triangle"}, "simd_utilisation" {"box", "triangle"} (active /
+//  total SIMD lanes of packet box and triangle tests; null without packets), "bounces": [{"bounce",
+//  "rays", "node_visits", "box_tests", "triangle_tests", "node_visits_per_ray", "box_tests_per_ray",
+//  "triangle_tests_per_ray", "simd_box_utilisation", "simd_triangle_utilisation", "and_deeper"}, ...]
+//  (bounce 0 = camera rays and their shadow rays; trailing empty bounces left out; "and_deeper" marks the
+//  last slot that collects every deeper bounce), "heatmaps" (null, or per pass: "exr", "png", "scale"
+//  [lo, hi] of the PNG's colours, "min", "max", "mean")}.
 std::string render_report_json(const RenderReport& report);
 
 }  // namespace coherent::cli

@@ -53,6 +53,8 @@ constexpr int kMaxSpp = 1 << 20;
 constexpr int kMaxThreads = 4096;
 constexpr int kMaxBounces = 1024;
 constexpr int kMaxPacket = 16;
+constexpr int kMaxWaveSize = 1 << 24;  // paths in flight; ~100 bytes of state each
+constexpr int kMaxAoSamples = 1 << 12;
 
 bool parse_output(RenderOptions& o, const char* v, std::string&) {
     o.output = v;
@@ -115,6 +117,62 @@ bool parse_packet(RenderOptions& o, const char* v, std::string& e) {
     const std::string w(v, size_t(x - v)), h(x + 1);
     return parse_integer(w.c_str(), 1, kMaxPacket, "--packet width", o.settings.packet_width, e) &&
            parse_integer(h.c_str(), 1, kMaxPacket, "--packet height", o.settings.packet_height, e);
+}
+// Enumerated choices: the value must be one of the names render_modes.h
+// prints; the error lists them so a typo is fixed without the help text.
+template <typename Enum>
+bool parse_choice(const char* v, std::optional<Enum> (*parse)(std::string_view), const char* option,
+                  const char* choices, Enum& out, std::string& e) {
+    const std::optional<Enum> parsed = parse(v);
+    if (!parsed) {
+        e = std::string(option) + " expects " + choices + ", got '" + v + "'";
+        return false;
+    }
+    out = *parsed;
+    return true;
+}
+bool parse_integrator_option(RenderOptions& o, const char* v, std::string& e) {
+    return parse_choice(v, &parse_integrator, "--integrator", "pt, drt, wrt, rcs or ao", o.settings.integrator, e);
+}
+bool parse_traversal_option(RenderOptions& o, const char* v, std::string& e) {
+    return parse_choice(v, &parse_traversal, "--traversal", "auto, single, wide, packet, stream or wavefront",
+                        o.settings.traversal, e);
+}
+bool parse_assembly_option(RenderOptions& o, const char* v, std::string& e) {
+    return parse_choice(v, &parse_assembly, "--assembly", "types or runs", o.settings.assembly, e);
+}
+bool parse_reorder_option(RenderOptions& o, const char* v, std::string& e) {
+    return parse_choice(v, &parse_reorder, "--reorder", "none, static1d, static3d, hash32, hash192 or csd32",
+                        o.settings.reorder, e);
+}
+bool parse_bvh_width(RenderOptions& o, const char* v, std::string& e) {
+    int width = 0;
+    if (!parse_integer(v, 1, 64, "--bvh-width", width, e) || (width != 2 && width != 4 && width != 8)) {
+        e = std::string("--bvh-width expects 2, 4 or 8, got '") + v + "'";
+        return false;
+    }
+    o.settings.bvh_width = width;
+    return true;
+}
+bool parse_wave_size(RenderOptions& o, const char* v, std::string& e) {
+    return parse_integer(v, 1, kMaxWaveSize, "--wave-size", o.settings.wave_size, e);
+}
+bool parse_ao_samples(RenderOptions& o, const char* v, std::string& e) {
+    return parse_integer(v, 1, kMaxAoSamples, "--ao-samples", o.settings.ao_samples, e);
+}
+bool parse_ao_distance(RenderOptions& o, const char* v, std::string& e) {
+    double d = 0.0;
+    if (!parse_nonnegative_real(v, 1e30, "--ao-distance", d, e)) return false;
+    o.settings.ao_distance = float(d);
+    return true;
+}
+bool parse_heatmaps(RenderOptions& o, const char*, std::string&) {
+    o.settings.heatmaps = true;
+    return true;
+}
+bool parse_adaptive_min_samples(RenderOptions& o, const char* v, std::string& e) {
+    o.settings.adaptive = true;  // as --adaptive-threshold: giving it asks for adaptive sampling
+    return parse_integer(v, 2, kMaxSpp, "--adaptive-min-samples", o.settings.adaptive_min_samples, e);
 }
 bool parse_convergence(RenderOptions& o, const char* v, std::string&) {
     o.convergence = v;
@@ -182,6 +240,10 @@ const std::vector<OptionSpec>& render_option_table() {
          "relative per-pixel error at which adaptive sampling stops a pixel; implies --adaptive (default " +
              std::to_string(d.adaptive_threshold).substr(0, 4) + ")",
          parse_adaptive_threshold},
+        {"--adaptive-min-samples", nullptr, "N",
+         "passes every pixel takes before adaptive sampling may stop it (rounded up to even); implies --adaptive "
+         "(default " + std::to_string(d.adaptive_min_samples) + ")",
+         parse_adaptive_min_samples},
         {"--seed", nullptr, "S", "random seed (default " + std::to_string(d.seed) + ")", parse_seed},
         {"--threads", nullptr, "T", "worker threads, 0 = all cores (default " + std::to_string(d.threads) + ")",
          parse_threads},
@@ -201,6 +263,43 @@ const std::vector<OptionSpec>& render_option_table() {
          "cpt/icpt: share sequences per packet (packet: the paper's Fig. 3) or over the whole image (image: its "
          "equation 3) (default " + std::string(sequence_scope_name(d.sequence_scope)) + ")",
          parse_sequences},
+        {"--integrator", nullptr, "I",
+         "light transport: pt (path tracing), drt (distribution ray tracing: direct light, glossy and specular "
+         "paths), wrt (Whitted: direct light, mirror and glass paths), rcs (ray casting with shadows), ao "
+         "(ambient occlusion, white = unoccluded) (default " + std::string(integrator_name(d.integrator)) + ")",
+         parse_integrator_option},
+        {"--traversal", nullptr, "T",
+         "how rays are traced: auto (packet with the CPT sampler, else single: where packets pay), single (one ray "
+         "at a time over the --bvh-width BVH; wide is the same), packet (SIMD "
+         "packets of --packet pixels), stream (breadth-first ray streams), wavefront (staged pipeline over waves "
+         "of --wave-size paths) (default " + std::string(traversal_name(d.traversal)) + ")",
+         parse_traversal_option},
+        {"--assembly", nullptr, "A",
+         "packet traversal: secondary rays form packets by ray type (types) or by runs of equal type in pixel "
+         "order (runs) (default " + std::string(assembly_name(d.assembly)) + ")",
+         parse_assembly_option},
+        {"--bvh-width", nullptr, "N",
+         "BVH branching factor for single-ray and stream traversal: 2, 4 or 8 (default " +
+             std::to_string(d.bvh_width) + ")",
+         parse_bvh_width},
+        {"--reorder", nullptr, "R",
+         "wavefront ray reordering: none, static1d (pixel Morton order), static3d (origin Morton order), hash32, "
+         "hash192 (hashed origin/direction keys, radix sorted), csd32 (compress-sort-decompress) (default " +
+             std::string(reorder_name(d.reorder)) + ")",
+         parse_reorder_option},
+        {"--wave-size", nullptr, "N",
+         "wavefront: paths in flight per wave, bounds memory (default " + std::to_string(d.wave_size) + ")",
+         parse_wave_size},
+        {"--ao-samples", nullptr, "N",
+         "ao: occlusion rays per camera sample (default " + std::to_string(d.ao_samples) + ")", parse_ao_samples},
+        {"--ao-distance", nullptr, "D",
+         "ao: occlusion ray length in scene units; 0 = a tenth of the scene's bounding-box diagonal (default 0)",
+         parse_ao_distance},
+        {"--heatmaps", nullptr, nullptr,
+         "also write OUT.bvh_visits.exr/.png (BVH node visits per camera sample) and OUT.simd.exr/.png (SIMD lane "
+         "utilisation of the packets that traced each pixel, 0..1): float EXR plus a false-colour PNG (viridis, "
+         "dark = low), with the value range printed",
+         parse_heatmaps},
         {"--convergence", nullptr, "CSV",
          "write seconds,spp,error_estimate per completed sample pass (from the 2nd, when an estimate exists); "
          "plot it with coherent plot CSV",

@@ -8,6 +8,7 @@
 #include <memory>
 
 #include "convergence_log.h"
+#include "heatmap_output.h"
 #include "io/gltf.h"
 #include "io/image.h"
 #include "json_report.h"
@@ -111,16 +112,33 @@ int render(const RenderOptions& options) {
         return kExitBadInput;
     }
 
+    std::vector<HeatmapImage> heatmaps;
+    if (settings.heatmaps) {
+        // Written even when empty, so a script finds the files it asked for;
+        // the warning says why they are all zero.
+        if (!renderer.film().has_heatmaps())
+            std::fprintf(stderr,
+                         "coherent: warning: the renderer recorded no heatmap samples for --integrator %s "
+                         "--traversal %s; the heatmaps are zero\n",
+                         std::string(integrator_name(settings.integrator)).c_str(),
+                         std::string(traversal_name(renderer.settings().traversal)).c_str());
+        if (!write_heatmaps(options.output, renderer.film(), heatmaps, error)) {
+            print_error(error);
+            return kExitBadInput;
+        }
+    }
+
     RenderReport report;
     report.seconds = render_seconds;
     report.load_seconds = load_seconds;
     report.build_seconds = build_seconds;
-    report.settings = settings;
+    report.settings = renderer.settings();  // as resolved (traversal auto -> single or packet)
     report.stats = renderer.stats();
     report.dropped = scene.dropped;
     report.features = renderer.active_features();
     report.triangles = scene.triangle_count();
     report.output = options.output;
+    report.heatmaps = heatmaps;
     if (options.json) {
         std::printf("%s\n", render_report_json(report).c_str());
     } else {
@@ -128,7 +146,22 @@ int render(const RenderOptions& options) {
         std::printf("coherent: wrote %s (%dx%d, %d spp, %.3f s, %.2f Mrays/s", options.output.c_str(),
                     settings.width, settings.height, report.stats.spp, render_seconds, mrays);
         if (report.stats.error_estimate >= 0.0) std::printf(", error %.2f %%", 100.0 * report.stats.error_estimate);
+        std::printf(", %s, %s", std::string(integrator_name(settings.integrator)).c_str(),
+                    std::string(traversal_name(renderer.settings().traversal)).c_str());
+        uint64_t lanes = 0, active = 0;
+        for (const BounceStats& b : report.stats.bounces) {
+            lanes += b.box_lanes;
+            active += b.box_lanes_active;
+        }
+        if (lanes) std::printf(", SIMD utilisation %.1f %%", 100.0 * double(active) / double(lanes));
         std::printf(")\n");
+        for (const HeatmapImage& h : heatmaps)
+            std::printf("coherent: wrote %s and %s: %s, colours from %g (dark) to %g (bright); min %g, mean %g, "
+                        "max %g\n",
+                        h.exr_path.c_str(), h.png_path.c_str(),
+                        h.pass == PassType::NodeVisits ? "BVH node visits per camera sample"
+                                                       : "SIMD lane utilisation",
+                        double(h.lo), double(h.hi), double(h.min), double(h.mean), double(h.max));
     }
     std::fflush(stdout);
     return kExitOk;

@@ -24,12 +24,58 @@ namespace {
 // the film stores +inf there, which the compositor cannot handle.
 constexpr float kBlenderNoDepth = 1e10f;
 
+constexpr PassType kPassTypes[] = {PassType::Combined, PassType::Depth,      PassType::Normal,
+                                   PassType::Error,    PassType::NodeVisits, PassType::SimdUtilisation};
+
 PassType pass_from_name(const std::string& name) {
-    for (PassType t : {PassType::Combined, PassType::Depth, PassType::Normal, PassType::Error})
+    for (PassType t : kPassTypes)
         if (name == pass_info(t).name) return t;
     if (name == "Z") return PassType::Depth;  // Blender < 2.92 name of the depth pass
     throw py::value_error("pass_pixels: unknown pass '" + name +
-                          "' (expected 'Combined', 'Depth', 'Normal' or 'Error')");
+                          "' (expected 'Combined', 'Depth', 'Normal', 'Error', 'BVH Visits' or 'SIMD Utilisation')");
+}
+
+// A ratio, or None when the denominator is 0 (nothing measured is not a measured 0).
+py::object ratio_object(uint64_t num, uint64_t den) {
+    return den ? py::object(py::float_(double(num) / double(den))) : py::object(py::none());
+}
+
+py::dict bounce_dict(int index, const BounceStats& b) {
+    py::dict d;
+    d["bounce"] = index;
+    d["rays"] = b.rays;
+    d["node_visits"] = b.node_visits;
+    d["box_tests"] = b.box_tests;
+    d["triangle_tests"] = b.triangle_tests;
+    d["box_lanes"] = b.box_lanes;
+    d["box_lanes_active"] = b.box_lanes_active;
+    d["triangle_lanes"] = b.triangle_lanes;
+    d["triangle_lanes_active"] = b.triangle_lanes_active;
+    d["node_visits_per_ray"] = ratio_object(b.node_visits, b.rays);
+    d["box_tests_per_ray"] = ratio_object(b.box_tests, b.rays);
+    d["triangle_tests_per_ray"] = ratio_object(b.triangle_tests, b.rays);
+    d["simd_box_utilisation"] = ratio_object(b.box_lanes_active, b.box_lanes);
+    d["simd_triangle_utilisation"] = ratio_object(b.triangle_lanes_active, b.triangle_lanes);
+    d["and_deeper"] = index == kStatBounces - 1;  // the last slot collects every deeper bounce
+    return d;
+}
+
+// The tracing configuration by the names render_modes.h uses (and the
+// Renderer's keyword arguments take).
+py::dict settings_dict(const RenderSettings& s) {
+    py::dict d;
+    d["integrator"] = std::string(integrator_name(s.integrator));
+    d["traversal"] = std::string(traversal_name(s.traversal));
+    d["assembly"] = std::string(assembly_name(s.assembly));
+    d["bvh_width"] = s.bvh_width;
+    d["reorder"] = std::string(reorder_name(s.reorder));
+    d["wave_size"] = s.wave_size;
+    d["ao_samples"] = s.ao_samples;
+    d["ao_distance"] = s.ao_distance;
+    d["heatmaps"] = s.heatmaps;
+    d["packet"] = py::make_tuple(s.packet_width, s.packet_height);
+    d["sampler"] = std::string(sampler_type_name(s.resolved_sampler()));
+    return d;
 }
 
 // The relative RMSE estimate, None while unknown (fewer than 2 passes).
@@ -55,6 +101,7 @@ public:
         }
         scene_->bvh = renderer_->shared_bvh();
         settings_ = settings;
+        settings_.traversal = renderer_->settings().traversal;  // auto resolved
     }
 
     ~PyRenderer() {
@@ -270,6 +317,24 @@ private:
         t["box_tests_per_ray"] = double(s.traversal.box_tests) / n;
         t["triangle_tests_per_ray"] = double(s.traversal.triangle_tests) / n;
         d["traversal"] = t;
+
+        // Per-bounce work (stats.h BounceStats), trailing empty bounces left out.
+        BounceStats all;
+        int last = -1;
+        for (int i = 0; i < kStatBounces; ++i) {
+            all += s.bounces[size_t(i)];
+            if (s.bounces[size_t(i)].rays) last = i;
+        }
+        py::list bounces;
+        for (int i = 0; i <= last; ++i) bounces.append(bounce_dict(i, s.bounces[size_t(i)]));
+        d["bounces"] = bounces;
+        py::dict simd;
+        simd["box"] = ratio_object(all.box_lanes_active, all.box_lanes);
+        simd["triangle"] = ratio_object(all.triangle_lanes_active, all.triangle_lanes);
+        d["simd_utilisation"] = simd;
+        d["rays_per_second"] = s.seconds > 0.0 ? double(s.total_rays()) / s.seconds : 0.0;
+        d["trace_seconds"] = s.trace_seconds;
+        d["sort_seconds"] = s.sort_seconds;
         return d;
     }
 
@@ -308,7 +373,10 @@ std::unique_ptr<PyRenderer> make_renderer(std::shared_ptr<PyScene> scene, int wi
                                           int tile_size, bool force_all_features, const std::string& sampler,
                                           const py::object& packet, bool progressive_display,
                                           const std::string& sequences, double target_error, double time_limit,
-                                          bool adaptive, double adaptive_threshold, int adaptive_min_samples) {
+                                          bool adaptive, double adaptive_threshold, int adaptive_min_samples,
+                                          const std::string& integrator, const std::string& traversal,
+                                          const std::string& assembly, int bvh_width, const std::string& reorder,
+                                          int wave_size, int ao_samples, double ao_distance, bool heatmaps) {
     if (!scene) throw py::type_error("scene: expected a coherent Scene, got None");
     constexpr int kMaxSize = 1 << 16;
     RenderSettings s;
@@ -347,6 +415,26 @@ std::unique_ptr<PyRenderer> make_renderer(std::shared_ptr<PyScene> scene, int wi
     s.progressive_display = progressive_display;
     if (const auto sc = parse_sequence_scope(sequences)) s.sequence_scope = *sc;
     else throw py::value_error("sequences: expected 'packet' or 'image', got '" + sequences + "'");
+    // Light transport and tracing (render_modes.h names).
+    if (const auto v = parse_integrator(integrator)) s.integrator = *v;
+    else throw py::value_error("integrator: expected 'pt', 'drt', 'wrt', 'rcs' or 'ao', got '" + integrator + "'");
+    if (const auto v = parse_traversal(traversal)) s.traversal = *v;
+    else throw py::value_error("traversal: expected 'single', 'wide', 'packet', 'stream' or 'wavefront', got '" +
+                               traversal + "'");
+    if (const auto v = parse_assembly(assembly)) s.assembly = *v;
+    else throw py::value_error("assembly: expected 'types' or 'runs', got '" + assembly + "'");
+    if (bvh_width != 2 && bvh_width != 4 && bvh_width != 8)
+        throw py::value_error("bvh_width: expected 2, 4 or 8, got " + std::to_string(bvh_width));
+    s.bvh_width = bvh_width;
+    if (const auto v = parse_reorder(reorder)) s.reorder = *v;
+    else throw py::value_error("reorder: expected 'none', 'static1d', 'static3d', 'hash32', 'hash192' or 'csd32', got '" +
+                               reorder + "'");
+    s.wave_size = checked_int(wave_size, 1, 1 << 24, "wave_size");
+    s.ao_samples = checked_int(ao_samples, 1, 1 << 12, "ao_samples");
+    if (!(ao_distance >= 0.0 && std::isfinite(float(ao_distance))))  // finite also as a float
+        throw py::value_error("ao_distance: expected a finite length >= 0 (0 = a tenth of the scene's diagonal)");
+    s.ao_distance = float(ao_distance);
+    s.heatmaps = heatmaps;
     if (!border.is_none()) {
         const auto b = border.cast<std::vector<int>>();
         if (b.size() != 4) throw py::value_error("border: expected (x0, y0, x1, y1) in pixels");
@@ -390,6 +478,21 @@ adaptive=True: after adaptive_min_samples passes (rounded up to even), at
 every even pass count, a pixel whose estimated relative error and whose 3x3
 neighbours' are at most adaptive_threshold stops taking samples; stats()
 carries converged_pixels and converged_fraction.
+
+Light transport and tracing (the same names as `coherent render`):
+integrator="pt" | "drt" | "wrt" | "rcs" | "ao" (path tracing, distribution
+ray tracing, Whitted, ray casting with shadows, ambient occlusion);
+traversal="single" | "wide" (= single) | "packet" | "stream" | "wavefront";
+assembly="types" | "runs" (packet traversal: secondary rays grouped by ray
+type or by runs of equal type); bvh_width=2 | 4 | 8; reorder="none" |
+"static1d" | "static3d" | "hash32" | "hash192" | "csd32" and wave_size
+(wavefront); ao_samples and ao_distance (ao; 0 = a tenth of the scene's
+diagonal). heatmaps=True fills the 'BVH Visits' and 'SIMD Utilisation'
+passes. The `settings` property returns the configuration as resolved.
+stats() adds per-bounce work ("bounces": rays, node visits, box and triangle
+tests per ray, SIMD utilisation of box and triangle tests; None where no
+packet traced), "simd_utilisation", "rays_per_second", "trace_seconds" and
+"sort_seconds".
 )doc")
         .def(py::init(&make_renderer), py::arg("scene"), py::kw_only(), py::arg("width") = 512,
              py::arg("height") = 512, py::arg("spp") = 16, py::arg("seed") = 0, py::arg("threads") = 0,
@@ -399,7 +502,10 @@ carries converged_pixels and converged_fraction.
              py::arg("sampler") = "spt", py::arg("packet") = py::make_tuple(4, 4),
              py::arg("progressive_display") = false, py::arg("sequences") = "packet", py::arg("target_error") = 0.0,
              py::arg("time_limit") = 0.0, py::arg("adaptive") = false, py::arg("adaptive_threshold") = 0.01,
-             py::arg("adaptive_min_samples") = 16)
+             py::arg("adaptive_min_samples") = 16, py::arg("integrator") = "pt", py::arg("traversal") = "auto",
+             py::arg("assembly") = "types", py::arg("bvh_width") = 8, py::arg("reorder") = "none",
+             py::arg("wave_size") = RenderSettings{}.wave_size, py::arg("ao_samples") = RenderSettings{}.ao_samples,
+             py::arg("ao_distance") = 0.0, py::arg("heatmaps") = false)
         .def("render", &PyRenderer::render, py::arg("progress") = py::none(), R"doc(
 Renders all samples; returns False if cancelled. `progress(dict)` is called
 after every sample pass (and periodically within long passes) with keys
@@ -424,7 +530,11 @@ before the first pass completes.)doc")
 The resolved pass as a new float32 array of shape (film_height*film_width,
 channels): 'Combined' (RGBA), 'Depth' (1; 1e10 where nothing was hit) or
 'Normal' (XYZ) or 'Error' (1; per-pixel estimated RMS error of the mean
-radiance, from even/odd sample passes, 0 before 2 passes). flip_y=True orders rows bottom-up as Blender expects.)doc")
+radiance, from even/odd sample passes, 0 before 2 passes), and with
+heatmaps=True 'BVH Visits' (1; BVH node visits per camera sample) and 'SIMD
+Utilisation' (1; mean active fraction, 0..1, of the SIMD lanes that traced
+the pixel's rays; 0 where no heatmap sample was taken). flip_y=True orders
+rows bottom-up as Blender expects.)doc")
         .def("stats", &PyRenderer::stats, "Render statistics: rays per type, traversal counters, time.")
         .def("bvh_stats", &PyRenderer::bvh_stats, "BVH build statistics.")
         .def_property_readonly("bvh_reused", &PyRenderer::bvh_reused,
@@ -434,7 +544,10 @@ radiance, from even/odd sample passes, 0 before 2 passes). flip_y=True orders ro
         .def_property_readonly("height", [](const PyRenderer& r) { return r.settings().height; })
         .def_property_readonly("film_width", [](const PyRenderer& r) { return r.film().width(); })
         .def_property_readonly("film_height", [](const PyRenderer& r) { return r.film().height(); })
-        .def_property_readonly("spp", [](const PyRenderer& r) { return r.settings().spp; });
+        .def_property_readonly("spp", [](const PyRenderer& r) { return r.settings().spp; })
+        .def_property_readonly("settings", [](const PyRenderer& r) { return settings_dict(r.settings()); },
+                               "The tracing configuration as a dict: integrator, traversal, assembly, bvh_width, "
+                               "reorder, wave_size, ao_samples, ao_distance, heatmaps, packet, sampler (resolved).");
 }
 
 }  // namespace coherent::python

@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "accel/bvh.h"
+#include "render/renderer.h"
 #include "bindings.h"
 
 namespace coherent::python {
@@ -161,7 +162,8 @@ py::tuple vec_tuple(const Vec3f& v) { return py::make_tuple(v.x, v.y, v.z); }
 
 size_t add_mesh(PyScene& self, const std::string& name, const py::handle& positions_obj,
                 const py::handle& indices_obj, const py::handle& matrix_obj, const py::handle& normals_obj,
-                const py::handle& material_ids_obj, const py::handle& material_slots_obj) {
+                const py::handle& material_ids_obj, const py::handle& material_slots_obj,
+                const py::handle& matrix_close_obj) {
     self.check_mutable("add_mesh");
     MeshInput in;
     in.name = name;
@@ -175,13 +177,22 @@ size_t add_mesh(PyScene& self, const std::string& name, const py::handle& positi
     in.indices = index_array(indices_obj, {-1, 3}, "indices", "(M, 3)", indices_keep, indices_storage);
     in.triangle_count = size_t(indices_keep.shape(0));
 
-    FloatArray matrix = float_array(matrix_obj, {4, 4}, "matrix", "(4, 4)");
-    for (int r = 0; r < 4; ++r)
-        for (int c = 0; c < 4; ++c) {
-            const float v = matrix.at(r, c);
-            if (!std::isfinite(v)) throw py::value_error("matrix: entries must be finite");
-            in.object_to_world.m[r][c] = v;
-        }
+    auto read_matrix = [](const py::handle& obj, const char* what, Transform& out) {
+        FloatArray matrix = float_array(obj, {4, 4}, what, "(4, 4)");
+        for (int r = 0; r < 4; ++r)
+            for (int c = 0; c < 4; ++c) {
+                const float v = matrix.at(r, c);
+                if (!std::isfinite(v)) throw py::value_error(std::string(what) + ": entries must be finite");
+                out.m[r][c] = v;
+            }
+    };
+    read_matrix(matrix_obj, "matrix", in.object_to_world);
+    // Object motion blur: the transform at shutter close (`matrix` is the
+    // one at shutter open).
+    if (!matrix_close_obj.is_none()) {
+        read_matrix(matrix_close_obj, "matrix_close", in.object_to_world_close);
+        in.moves = true;
+    }
 
     FloatArray normals;
     if (!normals_obj.is_none()) {
@@ -406,12 +417,12 @@ double build_bvh(PyScene& self, bool spatial_splits) {
     BvhBuildOptions options;
     if (!spatial_splits) options.spatial_split_budget = 0.0f;  // plain binned SAH
     self.ensure_finalized();
-    auto bvh = std::make_shared<Bvh>();
+    std::shared_ptr<Bvh> bvh;
     // Claimed like a Renderer claims it: no mutation while the GIL is released.
     self.active_renderers.fetch_add(1);
     try {
         py::gil_scoped_release unlocked;
-        bvh->build(self.scene, options);
+        bvh = Renderer::build_bvh(self.scene, options);  // leaves moving triangles to the MotionBvh
     } catch (...) {
         self.active_renderers.fetch_sub(1);
         throw;
@@ -475,7 +486,7 @@ default grey diffuse.
         .def(py::init<>())
         .def("add_mesh", &add_mesh, py::arg("name"), py::arg("positions"), py::arg("indices"), py::arg("matrix"),
              py::arg("normals") = py::none(), py::arg("material_ids") = py::none(),
-             py::arg("material_slots") = py::none(),
+             py::arg("material_slots") = py::none(), py::arg("matrix_close") = py::none(),
              R"doc(Adds a triangle mesh, transformed to world space by `matrix`.
 
 positions: float (N, 3) object-space vertices (any real dtype, converted to float32)
@@ -484,6 +495,8 @@ matrix: float (4, 4) row-major object-to-world transform
 normals: optional float (M, 3, 3) per-corner shading normals (object space)
 material_ids: optional integer (M,) per-triangle index into material_slots
 material_slots: optional list of scene material indices; empty -> material 0
+matrix_close: optional float (4, 4) transform at shutter close (object motion
+  blur): the mesh moves linearly from `matrix` (shutter open) to it
 Bad triangles (non-finite, out-of-range index, zero area) are dropped and
 counted in `dropped`. Returns the number of triangles added.)doc")
         .def("add_material", &add_material, py::arg("name"), py::arg("closures") = py::none(),
