@@ -7,7 +7,7 @@
 #include <filesystem>
 #include <memory>
 
-#include <OpenImageIO/imageio.h>
+#include "io/image.h"
 
 namespace coherent::cli {
 namespace {
@@ -25,33 +25,6 @@ constexpr std::array<std::array<float, 3>, 17> kViridis = {{
     {0.8456f, 0.8873f, 0.0997f}, {0.9932f, 0.9062f, 0.1439f},
 }};
 
-std::string one_line(std::string s) {
-    for (char& c : s)
-        if (c == '\n' || c == '\r') c = ' ';
-    while (!s.empty() && s.back() == ' ') s.pop_back();
-    return s;
-}
-
-bool write_oiio(const std::string& path, const OIIO::ImageSpec& spec, OIIO::TypeDesc type, const void* pixels,
-                std::string& error) {
-    auto out = OIIO::ImageOutput::create(path);
-    if (!out) {
-        error = path + ": cannot create image writer: " + one_line(OIIO::geterror());
-        return false;
-    }
-    if (!out->open(path, spec)) {
-        error = path + ": cannot open for writing: " + one_line(out->geterror());
-        return false;
-    }
-    const bool wrote = out->write_image(type, pixels);
-    const std::string write_error = wrote ? std::string() : one_line(out->geterror());
-    const bool closed = out->close();
-    if (!wrote || !closed) {
-        error = path + ": write failed: " + (wrote ? one_line(out->geterror()) : write_error);
-        return false;
-    }
-    return true;
-}
 
 uint8_t to_byte(float v) { return uint8_t(std::lround(std::clamp(v, 0.0f, 1.0f) * 255.0f)); }
 
@@ -80,11 +53,7 @@ bool write_one(const std::string& output, const Film& film, PassType pass, const
     image.lo = 0.0f;
     image.hi = fixed_unit_range ? 1.0f : std::max(1.0f, image.max);
 
-    OIIO::ImageSpec exr(w, h, 1, OIIO::TypeDesc::FLOAT);
-    exr.channelnames = {"Y"};
-    exr.attribute("compression", "zip");
-    exr.attribute("oiio:ColorSpace", "Linear");
-    if (!write_oiio(image.exr_path, exr, OIIO::TypeDesc::FLOAT, values.data(), error)) return false;
+    if (!write_value_exr(image.exr_path, w, h, values.data(), "Y", error)) return false;
 
     std::vector<uint8_t> rgb(n * 3);
     const float scale = 1.0f / (image.hi - image.lo);
@@ -93,9 +62,7 @@ bool write_one(const std::string& output, const Film& film, PassType pass, const
         viridis((values[i] - image.lo) * scale, c);
         for (int k = 0; k < 3; ++k) rgb[i * 3 + size_t(k)] = to_byte(c[k]);
     }
-    OIIO::ImageSpec png(w, h, 3, OIIO::TypeDesc::UINT8);
-    png.attribute("oiio:ColorSpace", "sRGB");
-    return write_oiio(image.png_path, png, OIIO::TypeDesc::UINT8, rgb.data(), error);
+    return write_rgb8_png(image.png_path, w, h, rgb.data(), error);
 }
 
 }  // namespace

@@ -103,6 +103,21 @@ bool write_png(const std::string& path, const ImagePasses& p, std::string& error
 
 }  // namespace
 
+bool write_value_exr(const std::string& path, int width, int height, const float* values, const char* channel,
+                     std::string& error) {
+    OIIO::ImageSpec spec(width, height, 1, OIIO::TypeDesc::FLOAT);
+    spec.channelnames = {channel};
+    spec.attribute("compression", "zip");
+    spec.attribute("oiio:ColorSpace", "Linear");
+    return write_with_oiio(path, spec, OIIO::TypeDesc::FLOAT, values, error);
+}
+
+bool write_rgb8_png(const std::string& path, int width, int height, const uint8_t* rgb, std::string& error) {
+    OIIO::ImageSpec spec(width, height, 3, OIIO::TypeDesc::UINT8);
+    spec.attribute("oiio:ColorSpace", "sRGB");
+    return write_with_oiio(path, spec, OIIO::TypeDesc::UINT8, rgb, error);
+}
+
 ImageFormat image_format_for(const std::string& path) {
     const std::string ext = lower_extension(path);
     if (ext == ".exr") return ImageFormat::Exr;

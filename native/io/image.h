@@ -9,6 +9,7 @@
 //    as Blender's "Standard" view transform saves a PNG.
 #pragma once
 
+#include <cstdint>
 #include <string>
 
 namespace coherent {
@@ -34,6 +35,13 @@ bool write_image(const std::string& path, const ImagePasses& passes, std::string
 
 // Resolves Combined, Depth and Normal from the film and writes them.
 bool write_film(const std::string& path, const Film& film, std::string& error);
+
+// Diagnostic images (heatmaps): one float channel named `channel` to an
+// EXR (linear, ZIP), and 8-bit sRGB-encoded RGB (already display values) to
+// a PNG. Same error reporting as write_image.
+bool write_value_exr(const std::string& path, int width, int height, const float* values, const char* channel,
+                     std::string& error);
+bool write_rgb8_png(const std::string& path, int width, int height, const uint8_t* rgb, std::string& error);
 
 // sRGB opto-electronic transfer function (IEC 61966-2-1) on [0,1].
 float linear_to_srgb(float linear);

@@ -60,20 +60,8 @@ namespace packet_detail {
 template <class Sampler>
 inline void book_packet(RenderStats& st, int bounce, RayType type, const PacketCounters& pc, const RayPacket& pk,
                         const int* lane_path, const uint32_t* lane_visits, PathBatch<Sampler>& batch) {
-    st.rays[size_t(type)] += uint64_t(pc.rays);
-    st.traversal.rays += pc.rays;
-    st.traversal.node_visits += pc.node_visits;
-    st.traversal.box_tests += pc.box_tests;
-    st.traversal.triangle_tests += pc.triangle_tests;
-    BounceStats& b = st.bounces[size_t(std::min(bounce, kStatBounces - 1))];
-    b.rays += pc.rays;
-    b.node_visits += pc.node_visits;
-    b.box_tests += pc.box_tests;
-    b.triangle_tests += pc.triangle_tests;
-    b.box_lanes += pc.box_lanes;
-    b.box_lanes_active += pc.box_lanes_active;
-    b.triangle_lanes += pc.triangle_lanes;
-    b.triangle_lanes_active += pc.triangle_lanes_active;
+    book_rays(st, bounce, type, pc.rays);
+    book_work(st, bounce, pc);
     if (batch.node_visits.empty()) return;
     for (int i = 0; i < pk.size; ++i) {
         const int p = lane_path[i];
@@ -151,7 +139,7 @@ void trace_batch_packets(const PathContext& ctx, PacketAssembly assembly, PathBa
             const bool found = merge_motion_hit(ctx, batch.states[p], h.valid(), h, &motion);
             shade_hit<Sampler, kGlass, kLights>(ctx, batch.samplers[p], batch.states[p], found, h);
         }
-        if (ctx.motion) book_motion(st, bounce, motion);
+        if (ctx.motion) book_work(st, bounce, motion);
         pk.clear();
     };
     // Traces the occlusion rays gathered in pk; `done(lane, occluded)` takes each result.
@@ -178,7 +166,7 @@ void trace_batch_packets(const PathContext& ctx, PacketAssembly assembly, PathBa
         for (int i = 0; i < pk.size; ++i)
             done(i, scratch.occluded.test(i) ||
                         motion_occluded(ctx, batch.states[size_t(scratch.lane_path[i])], pk.ray(i), &motion));
-        if (ctx.motion) book_motion(st, bounce, motion);
+        if (ctx.motion) book_work(st, bounce, motion);
         pk.clear();
     };
 
@@ -294,16 +282,12 @@ void trace_batch_streams(const PathContext& ctx, PathBatch<Sampler>& batch, Stre
     options.batch_size = 0;  // the whole stream at once
     options.parallel = false;
     auto book = [&](int bounce, const StreamStats& ss, const std::vector<int>& path, auto&& type_of) {
-        for (size_t i = 0; i < path.size(); ++i) ++st.rays[size_t(type_of(path[i]))];
-        st.traversal.rays += ss.rays;
-        st.traversal.node_visits += ss.node_visits;
-        st.traversal.box_tests += ss.box_tests;
-        st.traversal.triangle_tests += ss.triangle_tests;
-        BounceStats& b = st.bounces[size_t(std::min(bounce, kStatBounces - 1))];
-        b.rays += ss.rays;
-        b.node_visits += ss.node_visits;
-        b.box_tests += ss.box_tests;
-        b.triangle_tests += ss.triangle_tests;
+        for (size_t i = 0; i < path.size(); ++i) book_rays(st, bounce, type_of(path[i]), 1);
+        TraversalCounters c;
+        c.node_visits = ss.node_visits;
+        c.box_tests = ss.box_tests;
+        c.triangle_tests = ss.triangle_tests;
+        book_work(st, bounce, c);
     };
     auto shadow_type = [](int) { return RayType::Shadow; };
     for (int bounce = 0;; ++bounce) {
@@ -325,7 +309,7 @@ void trace_batch_streams(const PathContext& ctx, PathBatch<Sampler>& batch, Stre
             const bool found = merge_motion_hit(ctx, batch.states[p], scratch.hits[i].valid(), scratch.hits[i], &motion);
             shade_hit<Sampler, kGlass, kLights>(ctx, batch.samplers[p], batch.states[p], found, scratch.hits[i]);
         }
-        if (ctx.motion) book_motion(st, bounce, motion);
+        if (ctx.motion) book_work(st, bounce, motion);
         // Occlusion rays: shadow rays, and at the first hit the AO rays.
         scratch.rays.clear();
         scratch.path.clear();
@@ -349,7 +333,7 @@ void trace_batch_streams(const PathContext& ctx, PathBatch<Sampler>& batch, Stre
             for (size_t i = 0; i < scratch.rays.size(); ++i)
                 if (!scratch.occluded[i] && motion_occluded(ctx, batch.states[size_t(scratch.path[i])], scratch.rays[i], &mc))
                     scratch.occluded[i] = 1;
-            book_motion(st, bounce, mc);
+            book_work(st, bounce, mc);
         }
         // Rays of a path are consecutive: its shadow ray, or its AO rays.
         for (size_t i = 0; i < scratch.path.size();) {

@@ -82,29 +82,6 @@ namespace {
 
 using Buffers = WavefrontRenderer::Buffers;
 
-void book_rays(RenderStats& st, int bounce, const TraversalCounters& c) {
-    st.traversal += c;
-    BounceStats& b = st.bounces[size_t(std::min(bounce, kStatBounces - 1))];
-    b.node_visits += c.node_visits;
-    b.box_tests += c.box_tests;
-    b.triangle_tests += c.triangle_tests;
-}
-
-void book_packet(RenderStats& st, int bounce, const PacketCounters& pc) {
-    st.traversal.rays += pc.rays;
-    st.traversal.node_visits += pc.node_visits;
-    st.traversal.box_tests += pc.box_tests;
-    st.traversal.triangle_tests += pc.triangle_tests;
-    BounceStats& b = st.bounces[size_t(std::min(bounce, kStatBounces - 1))];
-    b.node_visits += pc.node_visits;
-    b.box_tests += pc.box_tests;
-    b.triangle_tests += pc.triangle_tests;
-    b.box_lanes += pc.box_lanes;
-    b.box_lanes_active += pc.box_lanes_active;
-    b.triangle_lanes += pc.triangle_lanes;
-    b.triangle_lanes_active += pc.triangle_lanes_active;
-}
-
 // Reorders and traces the queued batch: closest hits (extension rays) or
 // occlusion (shadow and AO rays). Results land at the rays' queue indices.
 template <bool kOcclusion>
@@ -147,7 +124,8 @@ void trace_batch(const Bvh& bvh, const WavefrontOptions& opt, bool reorder, Buff
             if constexpr (kOcclusion) b.flag[i] = bvh.occluded(r, cp) ? 1 : 0;
             else b.flag[i] = bvh.intersect(r, b.hits[i], cp) ? 1 : 0;
             if (opt.counters) {
-                book_rays(st, bounce, c);
+                st.traversal.rays += c.rays;  // its type and bounce were counted when queued
+                book_work(st, bounce, c);
                 if (per_path) b.visits[b.owner[i]] += uint32_t(c.node_visits);
             }
         }
@@ -188,7 +166,8 @@ void trace_batch(const Bvh& bvh, const WavefrontOptions& opt, bool reorder, Buff
                 }
             }
             if (opt.counters) {
-                book_packet(st, bounce, pc);
+                st.traversal.rays += pc.rays;
+                book_work(st, bounce, pc);
                 if (per_path)
                     for (int l = 0; l < pk.size; ++l) b.visits[b.owner[lane_index[l]]] += b.lane_visits[size_t(l)];
             }
@@ -294,7 +273,7 @@ void WavefrontRenderer::run_wave(WavefrontRenderer& self, const ImageSampler& sa
         if (ctx.motion)
             for (size_t i = 0; i < m; ++i)
                 if (!b.flag[i] && motion_occluded(ctx, b.states[b.owner[i]], b.rays[i], &motion)) b.flag[i] = 1;
-        if (ctx.motion) book_motion(st, bounce, motion);
+        if (ctx.motion) book_work(st, bounce, motion);
 
         // Resolve in queue order: a path's AO rays are consecutive.
         for (size_t i = 0; i < m;) {
