@@ -23,6 +23,7 @@
 #include "accel/bvh.h"
 #include "core/ray.h"
 #include "core/vec.h"
+#include "io/gltf.h"
 #include "scene/scene.h"
 
 namespace coherent::bench {
@@ -192,6 +193,20 @@ inline double best_seconds(int runs, int threads, const std::string& label, cons
         p.update(double(i + 1) / runs);
     }
     return best;
+}
+
+// Loads a glTF scene for a bench (camera aspect width / height) and
+// finalizes it, showing progress; on failure prints "TOOL: cannot load PATH:
+// why" and returns false.
+inline bool load_scene(const std::string& path, float aspect, const char* tool, Scene& scene) {
+    Progress p("loading " + path);
+    const GltfLoadResult res = load_gltf(path, scene, aspect);
+    if (!res.ok) {
+        std::fprintf(stderr, "%s: cannot load %s: %s\n", tool, path.c_str(), res.error.c_str());
+        return false;
+    }
+    scene.finalize();
+    return true;
 }
 
 }  // namespace coherent::bench

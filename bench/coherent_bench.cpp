@@ -162,15 +162,7 @@ int main(int argc, char** argv) {
     FILE* table = opt.json ? stderr : stdout;
 
     Scene scene;
-    {
-        Progress p("loading " + name);
-        const GltfLoadResult res = load_gltf(opt.scene_path, scene, float(opt.width) / float(opt.height));
-        if (!res.ok) {
-            std::fprintf(stderr, "coherent-bench: cannot load %s: %s\n", opt.scene_path.c_str(), res.error.c_str());
-            return 1;
-        }
-        scene.finalize();
-    }
+    if (!load_scene(opt.scene_path, float(opt.width) / float(opt.height), "coherent-bench", scene)) return 1;
     const size_t tris = scene.vertices.size() / 3;
     if (tris == 0) {
         std::fprintf(stderr, "coherent-bench: %s has no triangles\n", opt.scene_path.c_str());

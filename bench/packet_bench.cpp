@@ -384,12 +384,7 @@ int main(int argc, char** argv) {
     for (const std::string& path : opt.scenes) {
         const std::string name = std::filesystem::path(path).stem().string();
         Scene scene;
-        const GltfLoadResult res = load_gltf(path, scene, float(w) / float(h));
-        if (!res.ok) {
-            std::fprintf(stderr, "packet-bench: %s: %s\n", path.c_str(), res.error.c_str());
-            return 1;
-        }
-        scene.finalize();
+        if (!load_scene(path, float(w) / float(h), "packet-bench", scene)) return 1;
         Bvh bvh;
         bvh.build(scene);
         std::fprintf(stderr, "%s: %zu triangles, BVH %zu nodes\n", name.c_str(), scene.vertices.size() / 3,

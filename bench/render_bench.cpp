@@ -316,15 +316,7 @@ void run_error(const Options& o, const Scene& scene, std::shared_ptr<const Bvh> 
 int main(int argc, char** argv) {
     const Options o = parse(argc, argv);
     Scene scene;
-    {
-        bench::Progress p("loading " + scene_name(o.scene_path));
-        const GltfLoadResult res = load_gltf(o.scene_path, scene, float(o.width) / float(o.height));
-        if (!res.ok) {
-            std::fprintf(stderr, "render-bench: cannot load %s: %s\n", o.scene_path.c_str(), res.error.c_str());
-            return 1;
-        }
-        scene.finalize();
-    }
+    if (!load_scene(o.scene_path, float(o.width) / float(o.height), "render-bench", scene)) return 1;
     std::shared_ptr<Bvh> bvh = std::make_shared<Bvh>();
     {
         bench::Progress p("building BVH");

@@ -354,12 +354,7 @@ int main(int argc, char** argv) {
             "speedup_vs_none,trace_speedup_vs_none,image_hash,cpu_seconds,cpu_speedup_vs_none");
     for (const std::string& path : o.scenes) {
         Scene scene;
-        const GltfLoadResult lr = load_gltf(path, scene, float(o.width) / float(o.height));
-        if (!lr.ok) {
-            std::fprintf(stderr, "reorder-bench: %s: %s\n", path.c_str(), lr.error.c_str());
-            return 1;
-        }
-        scene.finalize();
+        if (!load_scene(path, float(o.width) / float(o.height), "reorder-bench", scene)) return 1;
         Bvh bvh;
         {
             Progress p(scene_name(path) + " BVH");

@@ -78,15 +78,7 @@ int main(int argc, char** argv) {
     const Options o = parse(argc, argv);
     const std::string name = std::filesystem::path(o.scene_path).stem().string();
     Scene scene;
-    {
-        bench::Progress p("loading " + name);
-        const GltfLoadResult res = load_gltf(o.scene_path, scene, float(o.width) / float(o.height));
-        if (!res.ok) {
-            std::fprintf(stderr, "traversal-table: cannot load %s: %s\n", o.scene_path.c_str(), res.error.c_str());
-            return 1;
-        }
-        scene.finalize();
-    }
+    if (!load_scene(o.scene_path, float(o.width) / float(o.height), "traversal-table", scene)) return 1;
     Bvh bvh[3];  // widths 2, 4, 8
     const int widths[3] = {2, 4, 8};
     for (int k = 0; k < 3; ++k) {

@@ -127,15 +127,7 @@ int main(int argc, char** argv) {
     const std::string name = std::filesystem::path(opt.scene_path).stem().string();
 
     Scene scene;
-    {
-        Progress p("loading " + name);
-        const GltfLoadResult res = load_gltf(opt.scene_path, scene, float(opt.width) / float(opt.height));
-        if (!res.ok) {
-            std::fprintf(stderr, "wide-bench: cannot load %s: %s\n", opt.scene_path.c_str(), res.error.c_str());
-            return 1;
-        }
-        scene.finalize();
-    }
+    if (!load_scene(opt.scene_path, float(opt.width) / float(opt.height), "wide-bench", scene)) return 1;
     const size_t tris = scene.vertices.size() / 3;
     if (tris == 0) {
         std::fprintf(stderr, "wide-bench: %s has no triangles\n", opt.scene_path.c_str());
