@@ -156,14 +156,16 @@ inline RaySets make_rays(const Scene& scene, const Bvh& bvh, int width, int heig
 // ---- timing -------------------------------------------------------------------
 
 // Runs `body(begin, end)` over [0, n) on `threads` threads (blocks of rays).
-inline void run_blocks(size_t n, int threads, const std::function<void(size_t, size_t)>& body) {
+// `grain`: the smallest block handed to one task (items that are themselves
+// big, e.g. whole streams or waves, want 1).
+inline void run_blocks(size_t n, int threads, const std::function<void(size_t, size_t)>& body, size_t grain = 1024) {
     if (threads == 1) {
         body(0, n);
         return;
     }
     tbb::task_arena arena(threads);
     arena.execute([&] {
-        tbb::parallel_for(tbb::blocked_range<size_t>(0, n, 1024),
+        tbb::parallel_for(tbb::blocked_range<size_t>(0, n, grain),
                           [&](const tbb::blocked_range<size_t>& r) { body(r.begin(), r.end()); });
     });
 }

@@ -127,7 +127,9 @@ def main():
     ap.add_argument("--res", type=int, nargs=2, default=[128, 128])
     ap.add_argument("--spp", type=int, default=64)
     ap.add_argument("--error-spp", type=int, default=256)
-    ap.add_argument("--reference-spp", type=int, default=4096)
+    ap.add_argument("--error-res", type=int, nargs=2, default=[64, 64],
+                    help="resolution of the error-versus-time runs (their reference is expensive)")
+    ap.add_argument("--reference-spp", type=int, default=2048)
     ap.add_argument("--runs", type=int, default=2)
     ap.add_argument("--only", choices=["speed", "assembly", "error"], help="run one part")
     ap.add_argument("--scenes", nargs="*", default=SCENES)
@@ -205,12 +207,13 @@ def main():
     if args.only in (None, "error"):
         rows, cmds = [], []
         for scene in args.scenes:
-            r, c = run(args.bench, ["error", scene_path(scene), "--res", *res, "--spp", str(args.error_spp),
+            r, c = run(args.bench, ["error", scene_path(scene), "--res", str(args.error_res[0]), str(args.error_res[1]),
+                                    "--spp", str(args.error_spp),
                                     "--reference-spp", str(args.reference_spp), "--packet", "4x4", "--max-bounces", "4"])
             rows += r
             cmds.append(c)
-        curve = [x for x in rows if not x["method"].endswith("equal-error")]
-        equal = [x for x in rows if x["method"].endswith("equal-error")]
+        curve = [x for x in rows if "equal-error" not in x["method"]]
+        equal = [x for x in rows if "equal-error" in x["method"]]
         with open(os.path.join(RESULTS, "coherent_paths_error.csv"), "w", newline="") as f:
             w = csv.DictWriter(f, fieldnames=list(rows[0].keys()))
             w.writeheader()
@@ -218,18 +221,21 @@ def main():
         error_plot(curve, os.path.join(RESULTS, "coherent_paths_error.png"))
         md += ["## Error versus time", "", "Commands:", ""] + ["    " + c for c in cmds] + [
             "", f"Equal-error time: seconds each method needs to reach the relative RMSE of SPT with single rays at "
-                f"{args.error_spp} spp (log-log interpolation between passes; target: CPT in at most half of SPT's time).",
+                f"{args.error_spp} spp (log-log interpolation between passes; extrap. = not reached within the run, "
+                f"extrapolated from the last pass by the t^-1/2 rate; target: CPT in at most half of SPT's time).",
             "", "| scene | target RMSE | SPT single | SPT packets | CPT packets | ICPT packets | CPT / SPT single time |",
             "|---|---|---|---|---|---|---|"]
         for scene in args.scenes:
-            e = {x["method"].replace("-equal-error", ""): float(x["seconds"]) for x in equal if x["scene"] == scene}
+            e = {x["method"].split("-equal-error")[0]: float(x["seconds"]) for x in equal if x["scene"] == scene}
+            extra = {x["method"].split("-equal-error")[0] for x in equal
+                     if x["scene"] == scene and x["method"].endswith("extrapolated")}
             tgt = [float(x["relative_rmse"]) for x in equal if x["scene"] == scene]
             if not e:
                 continue
-            fmt = lambda v: f"{v:.3f} s" if v >= 0 else "not reached"  # noqa: E731
-            md.append(f"| {scene} | {tgt[0]:.4f} | {fmt(e['spt-single'])} | {fmt(e['spt-packet'])} | "
-                      f"{fmt(e['cpt-packet'])} | {fmt(e['icpt-packet'])} | "
-                      f"{(e['cpt-packet'] / e['spt-single']) if e['cpt-packet'] > 0 else float('nan'):.2f} |")
+            fmt = lambda v, m: f"{v:.3f} s" + (" (extrap.)" if m in extra else "")  # noqa: E731
+            md.append(f"| {scene} | {tgt[0]:.4f} | {fmt(e['spt-single'], 'spt-single')} | "
+                      f"{fmt(e['spt-packet'], 'spt-packet')} | {fmt(e['cpt-packet'], 'cpt-packet')} | "
+                      f"{fmt(e['icpt-packet'], 'icpt-packet')} | {e['cpt-packet'] / e['spt-single']:.2f} |")
         md += ["", "![error versus time](coherent_paths_error.png)", ""]
 
     out = os.path.join(RESULTS, "coherent_paths.md" if args.only is None else f"coherent_paths_{args.only}.md")

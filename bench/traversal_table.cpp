@@ -174,7 +174,7 @@ int main(int argc, char** argv) {
                                    for (size_t i = first; i < last; ++i) hits[order[i]] = hp->hit(int(i - first));
                                }
                            }
-                       });
+                       }, 16);
                    }));
         }
         // Streams of 4096 rays (run_blocks hands each task whole streams).
@@ -192,7 +192,7 @@ int main(int argc, char** argv) {
                                else
                                    intersect_stream(wide, rays.data() + first, count, hits.data() + first, nullptr, so);
                            }
-                       });
+                       }, 1);
                    }));
         }
         // Wavefront reorder stage + single rays in the sorted order, per wave of 65536 rays.
@@ -211,7 +211,7 @@ int main(int argc, char** argv) {
                                    else wide.intersect(rays[first + i], hits[first + i]);
                                }
                            }
-                       });
+                       }, 1);
                    }));
         }
     }

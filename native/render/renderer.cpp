@@ -209,7 +209,8 @@ TileFn select_kernel(Traversal traversal, bool glass, bool dof, bool lights) {
         case Traversal::Stream: return select_kernel_for<Traversal::Stream>(glass, dof, lights);
         // The wavefront pipeline selects its own kernel variant (wavefront.h).
         case Traversal::Wavefront: return &render_tile_wavefront;
-        case Traversal::Single: break;
+        case Traversal::Single:
+        case Traversal::Auto: break;  // resolved before rendering
     }
     return select_kernel_for<Traversal::Single>(glass, dof, lights);
 }
@@ -221,6 +222,7 @@ Renderer::Renderer(const Scene& scene, const RenderSettings& settings) : Rendere
 Renderer::Renderer(const Scene& scene, const RenderSettings& settings, std::shared_ptr<const Bvh> bvh)
     : scene_(scene), settings_(settings) {
     features_ = settings_.force_all_features ? SceneFeatures::all() : scene_.features;
+    auto_traversal_ = settings_.traversal == Traversal::Auto;
     settings_.traversal = settings_.resolved_traversal();  // never Auto from here on
     // Clamp the border to the frame; an empty border renders nothing.
     settings_.width = std::max(settings_.width, 1);
@@ -287,41 +289,60 @@ bool Renderer::render(const ProgressCallback& progress) {
     // Lens sampling only where the camera has depth of field and the
     // integrator is one that models it (render_modes.h).
     const bool dof = features_.depth_of_field && integrator_uses_lens(settings_.integrator);
-    const TileFn kernel = select_kernel(settings_.traversal, features_.glass, dof, use_lights);
-
     const int bw = settings_.border_width(), bh = settings_.border_height();
-    // Packet traversal: tiles hold whole packets (a multiple of the packet
-    // size, about tile_size pixels on a side), so no packet straddles tiles.
-    const bool packets = settings_.traversal == Traversal::Packet;
-    int tw = packets ? settings_.packet_width * std::max(1, settings_.tile_size / settings_.packet_width)
-                     : settings_.tile_size;
-    int th = packets ? settings_.packet_height * std::max(1, settings_.tile_size / settings_.packet_height)
-                     : settings_.tile_size;
-    // ICPT packets are subsets of regions of 2 x 2 blocks of side n: tiles
-    // hold whole regions.
-    if (packets && settings_.resolved_sampler() == SamplerType::Icpt) {
-        const int region = 2 * std::min(settings_.packet_width, settings_.packet_height);
-        tw = th = region * std::max(1, settings_.tile_size / region);
-    }
-    // Streams amortise a node visit over the rays queued at it: bigger
-    // tiles (128 x 128 paths per stream).
-    if (settings_.traversal == Traversal::Stream) tw = th = 4 * settings_.tile_size;
-    // Wavefront: bands of whole rows holding about wave_size paths, at least
-    // two bands when the border has two rows (so both threads work).
     std::unique_ptr<WavefrontPool> wavefront;
-    if (settings_.traversal == Traversal::Wavefront) {
-        tw = std::max(bw, 1);
-        th = std::clamp(settings_.wave_size / tw, 1, std::max(1, (bh + 1) / 2));
-        wavefront = std::make_unique<WavefrontPool>();
-        wavefront->ctx = &ctx;
-        wavefront->options = WavefrontOptions::from_settings(settings_);
-        wavefront->options.node_visits = settings_.heatmaps;
-        wavefront->glass = features_.glass;
-        wavefront->depth_of_field = dof;
-        wavefront->lights = use_lights;
-    }
-    const int tiles_x = (bw + tw - 1) / tw, tiles_y = (bh + th - 1) / th;
-    const int tiles = tiles_x * tiles_y;
+    // How a traversal cuts the border into tiles, and its kernel.
+    struct Layout {
+        TileFn kernel;
+        int tw, th, tiles_x, tiles;
+    };
+    auto make_layout = [&](Traversal traversal) {
+        Layout l;
+        l.kernel = select_kernel(traversal, features_.glass, dof, use_lights);
+        // Packet traversal: tiles hold whole packets (a multiple of the
+        // packet size, about tile_size pixels on a side), so no packet
+        // straddles tiles.
+        const bool packets = traversal == Traversal::Packet;
+        l.tw = packets ? settings_.packet_width * std::max(1, settings_.tile_size / settings_.packet_width)
+                       : settings_.tile_size;
+        l.th = packets ? settings_.packet_height * std::max(1, settings_.tile_size / settings_.packet_height)
+                       : settings_.tile_size;
+        // ICPT packets are subsets of regions of 2 x 2 blocks of side n:
+        // tiles hold whole regions.
+        if (packets && settings_.resolved_sampler() == SamplerType::Icpt) {
+            const int region = 2 * std::min(settings_.packet_width, settings_.packet_height);
+            l.tw = l.th = region * std::max(1, settings_.tile_size / region);
+        }
+        // Streams amortise a node visit over the rays queued at it: bigger
+        // tiles (128 x 128 paths per stream).
+        if (traversal == Traversal::Stream) l.tw = l.th = 4 * settings_.tile_size;
+        // Wavefront: bands of whole rows holding about wave_size paths, at
+        // least two bands when the border has two rows (so both threads work).
+        if (traversal == Traversal::Wavefront) {
+            l.tw = std::max(bw, 1);
+            l.th = std::clamp(settings_.wave_size / l.tw, 1, std::max(1, (bh + 1) / 2));
+            wavefront = std::make_unique<WavefrontPool>();
+            wavefront->ctx = &ctx;
+            wavefront->options = WavefrontOptions::from_settings(settings_);
+            wavefront->options.node_visits = settings_.heatmaps;
+            wavefront->glass = features_.glass;
+            wavefront->depth_of_field = dof;
+            wavefront->lights = use_lights;
+        }
+        l.tiles_x = (bw + l.tw - 1) / l.tw;
+        l.tiles = l.tiles_x * ((bh + l.th - 1) / l.th);
+        return l;
+    };
+    Layout layout = make_layout(settings_.traversal);
+    // Traversal Auto chose packets (CPT): whether they beat single rays
+    // depends on the scene and the resolution (docs/results/coherent_paths.md:
+    // 1.1-1.3x on Sponza at 512 x 512, 0.9x on the dragon), so the first two
+    // passes measure it: pass 0 with single rays, pass 1 with packets, and
+    // the faster renders the rest. Both trace the same hits: same image.
+    const bool trial = auto_traversal_ && settings_.traversal == Traversal::Packet && settings_.spp >= 4;
+    const Layout single_layout = trial ? make_layout(Traversal::Single) : layout;
+    double trial_seconds[2] = {0.0, 0.0};
+    const int tiles = layout.tiles;
     const int spp = std::max(settings_.spp, 0);
 
     tbb::task_arena arena(settings_.threads > 0 ? settings_.threads : tbb::task_arena::automatic);
@@ -354,10 +375,12 @@ bool Renderer::render(const ProgressCallback& progress) {
     const int adaptive_min = std::max(2, settings_.adaptive_min_samples + (settings_.adaptive_min_samples & 1));
     for (int pass = 0; pass < spp && !cancelled() && tiles > 0; ++pass) {
         const ImageSampler sampler(sampler_config, uint32_t(pass), 1);
+        const Layout& L = trial && pass == 0 ? single_layout : layout;
+        const auto pass_start = Clock::now();
         tbb::enumerable_thread_specific<RenderStats> local;
         std::atomic<int> tiles_done{0};
         arena.execute([&] {
-            tbb::parallel_for(tbb::blocked_range<int>(0, tiles, 1), [&](const tbb::blocked_range<int>& r) {
+            tbb::parallel_for(tbb::blocked_range<int>(0, L.tiles, 1), [&](const tbb::blocked_range<int>& r) {
                 RenderStats& st = local.local();
                 for (int t = r.begin(); t != r.end(); ++t) {
                     if (cancelled()) return;
@@ -365,10 +388,10 @@ bool Renderer::render(const ProgressCallback& progress) {
                     job.ctx = &ctx;
                     job.sampler = &sampler;
                     job.film = &film_;
-                    job.x0 = settings_.border_x0 + (t % tiles_x) * tw;
-                    job.y0 = settings_.border_y0 + (t / tiles_x) * th;
-                    job.x1 = std::min(job.x0 + tw, settings_.border_x1);
-                    job.y1 = std::min(job.y0 + th, settings_.border_y1);
+                    job.x0 = settings_.border_x0 + (t % L.tiles_x) * L.tw;
+                    job.y0 = settings_.border_y0 + (t / L.tiles_x) * L.th;
+                    job.x1 = std::min(job.x0 + L.tw, settings_.border_x1);
+                    job.y1 = std::min(job.y0 + L.th, settings_.border_y1);
                     job.border_x0 = settings_.border_x0;
                     job.border_y0 = settings_.border_y0;
                     job.sample = uint32_t(pass);
@@ -380,17 +403,24 @@ bool Renderer::render(const ProgressCallback& progress) {
                     job.packet_height = settings_.packet_height;
                     job.assembly = settings_.assembly;
                     job.wavefront = wavefront.get();
-                    kernel(job, st);
+                    L.kernel(job, st);
                     const int done = tiles_done.fetch_add(1, std::memory_order_relaxed) + 1;
                     // Periodic progress within a long pass, always on the calling
                     // thread (which takes part in the parallel loop).
                     if (std::this_thread::get_id() == caller && Clock::now() - last_report >= report_interval)
-                        report(pass, (pass + double(done) / tiles) / spp);
+                        report(pass, (pass + double(done) / L.tiles) / spp);
                 }
             });
         });
         for (const RenderStats& s : local) stats_ += s;
         if (cancelled()) break;
+        if (trial && pass < 2) {
+            trial_seconds[pass] = std::chrono::duration<double>(Clock::now() - pass_start).count();
+            if (pass == 1 && trial_seconds[0] < trial_seconds[1]) {  // single rays were faster
+                layout = single_layout;
+                settings_.traversal = Traversal::Single;
+            }
+        }
         const int passes_done = pass + 1;
         stats_.spp = passes_done;
         // O(pixels), negligible next to a pass of path tracing.

@@ -82,6 +82,9 @@ private:
     // Marks pixels converged by the rule in settings.h; returns how many are now.
     uint64_t update_convergence();
     std::atomic<bool> cancelled_{false};
+    // The settings asked for Traversal::Auto (resolved in the constructor;
+    // render() may still trade packets for single rays after measuring).
+    bool auto_traversal_ = false;
 };
 
 }  // namespace coherent

@@ -150,6 +150,25 @@ TEST(RenderModes, StreamsAndWavefrontGiveTheSingleRayImage) {
     }
 }
 
+TEST(RenderModes, AutoTraversalTrialsBothAndKeepsTheImage) {
+    // Auto with CPT traces pass 0 with single rays and pass 1 with packets,
+    // then keeps the faster: whichever it keeps, the image is the
+    // single-ray image, and the traversal it reports is one of the two.
+    const Scene scene = modes_scene(true);
+    RenderSettings rs = modes_settings(Integrator::PathTrace, Traversal::Single, SamplerType::Cpt);
+    rs.spp = 6;
+    const auto single = render(scene, rs);
+    rs.traversal = Traversal::Auto;
+    Renderer r(scene, rs);
+    EXPECT_EQ(r.settings().traversal, Traversal::Packet);  // resolved for CPT
+    ASSERT_TRUE(r.render());
+    expect_same_image(single, r.film().resolve(PassType::Combined), "auto");
+    EXPECT_TRUE(r.settings().traversal == Traversal::Packet || r.settings().traversal == Traversal::Single);
+    // Auto with SPT is single rays.
+    rs.sampler = SamplerType::Spt;
+    EXPECT_EQ(Renderer(scene, rs).settings().traversal, Traversal::Single);
+}
+
 TEST(RenderModes, IntegratorsAreThePathTracerWithTheirBounceRules) {
     // Ray casting is direct light at the first hit: path tracing with Max
     // Bounces 0. Distribution ray tracing drops diffuse interreflection:
@@ -258,7 +277,9 @@ TEST(RenderModes, HeatmapsHoldNodeVisitsAndUtilisation) {
             EXPECT_GE(visits[i], 0.0f);
             EXPECT_GT(simd[i], 0.0f);
             EXPECT_LE(simd[i], 1.0f);
-            if (traversal == Traversal::Single) EXPECT_EQ(simd[i], 1.0f);
+            if (traversal == Traversal::Single) {
+                EXPECT_EQ(simd[i], 1.0f);
+            }
             total += visits[i];
         }
         // Every camera ray enters the root: at least one visit per sample.
