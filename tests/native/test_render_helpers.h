@@ -158,4 +158,38 @@ inline Scene sphere_on_floor_scene() {
     return s;
 }
 
+// Every lobe the integrators tell apart: a diffuse floor and sphere, a
+// mirror, a rough metal, a glass sphere, an area light and a dim world,
+// optionally seen through a lens with depth of field. From farther away
+// (camera_distance 9) camera rays also miss everything at the image's edges.
+inline Scene lobes_scene(bool depth_of_field, float camera_distance = 7.0f) {
+    Scene s;
+    const uint32_t white = s.add_material(diffuse_material(Vec3f(0.7f)));
+    const uint32_t red = s.add_material(diffuse_material(Vec3f(0.8f, 0.2f, 0.1f)));
+    const uint32_t mirror = s.add_material(principled(0.9f, 1.0f, 0.0f, 0.5f, 0.0f));
+    const uint32_t rough = s.add_material(principled(0.8f, 1.0f, 0.3f, 0.5f, 0.0f));
+    const uint32_t glass = s.add_material(principled(1.0f, 0.0f, 0.0f, 0.5f, 1.0f, 1.45f));
+    const uint32_t light = s.add_material(emission_material(Vec3f(6.0f)));
+    add_quad(s, {0, 0, 0}, {1, 0, 0}, {0, 1, 0}, 8.0f, 8.0f, white, "floor");
+    add_quad(s, {0, 3, 2}, {1, 0, 0}, {0, 0, 1}, 8.0f, 4.0f, mirror, "mirror wall");
+    add_sphere(s, {-1.5f, 0, 1}, 1.0f, red, 12, 24);
+    add_sphere(s, {1.5f, 0.5f, 0.8f}, 0.8f, glass, 12, 24);
+    add_sphere(s, {0.0f, -1.5f, 0.5f}, 0.5f, rough, 10, 20);
+    add_quad(s, {0, 0, 5}, {0, 1, 0}, {1, 0, 0}, 2.5f, 2.5f, light, "light");
+    Camera c;
+    c.position = {0.0f, -camera_distance, 3.0f};
+    c.forward = normalize(Vec3f(0.0f, camera_distance, -2.5f));
+    c.right = {1.0f, 0.0f, 0.0f};
+    c.up = normalize(cross(c.right, c.forward));
+    c.half_width = c.half_height = 0.6f;
+    if (depth_of_field) {
+        c.aperture_radius = 0.15f;
+        c.focus_distance = camera_distance;
+    }
+    s.camera = c;
+    s.world_color = Vec3f(0.1f);
+    s.finalize();
+    return s;
+}
+
 }  // namespace coherent::test

@@ -17,39 +17,6 @@ using namespace coherent::test;
 
 namespace {
 
-// Every lobe the integrators tell apart: a diffuse floor and sphere, a
-// mirror, a rough metal, a glass sphere, an area light and a dim world, seen
-// through a lens with depth of field.
-Scene modes_scene(bool depth_of_field) {
-    Scene s;
-    const uint32_t white = s.add_material(diffuse_material(Vec3f(0.7f)));
-    const uint32_t red = s.add_material(diffuse_material(Vec3f(0.8f, 0.2f, 0.1f)));
-    const uint32_t mirror = s.add_material(principled(0.9f, 1.0f, 0.0f, 0.5f, 0.0f));
-    const uint32_t rough = s.add_material(principled(0.8f, 1.0f, 0.3f, 0.5f, 0.0f));
-    const uint32_t glass = s.add_material(principled(1.0f, 0.0f, 0.0f, 0.5f, 1.0f, 1.45f));
-    const uint32_t light = s.add_material(emission_material(Vec3f(6.0f)));
-    add_quad(s, {0, 0, 0}, {1, 0, 0}, {0, 1, 0}, 8.0f, 8.0f, white, "floor");
-    add_quad(s, {0, 3, 2}, {1, 0, 0}, {0, 0, 1}, 8.0f, 4.0f, mirror, "mirror wall");
-    add_sphere(s, {-1.5f, 0, 1}, 1.0f, red, 12, 24);
-    add_sphere(s, {1.5f, 0.5f, 0.8f}, 0.8f, glass, 12, 24);
-    add_sphere(s, {0.0f, -1.5f, 0.5f}, 0.5f, rough, 10, 20);
-    add_quad(s, {0, 0, 5}, {0, 1, 0}, {1, 0, 0}, 2.5f, 2.5f, light, "light");
-    Camera c;
-    c.position = {0.0f, -7.0f, 3.0f};
-    c.forward = normalize(Vec3f(0.0f, 7.0f, -2.5f));
-    c.right = {1.0f, 0.0f, 0.0f};
-    c.up = normalize(cross(c.right, c.forward));
-    c.half_width = c.half_height = 0.6f;
-    if (depth_of_field) {
-        c.aperture_radius = 0.15f;
-        c.focus_distance = 7.0f;
-    }
-    s.camera = c;
-    s.world_color = Vec3f(0.1f);
-    s.finalize();
-    return s;
-}
-
 RenderSettings modes_settings(Integrator integrator, Traversal traversal, SamplerType sampler) {
     RenderSettings rs;
     rs.width = 40;  // not a multiple of the packet or tile size: partial packets
@@ -99,7 +66,7 @@ const SamplerType kSamplers[] = {SamplerType::Spt, SamplerType::Cpt, SamplerType
 }  // namespace
 
 TEST(RenderModes, PacketsGiveTheSingleRayImageForEveryIntegratorSamplerAndAssembly) {
-    const Scene scene = modes_scene(true);
+    const Scene scene = lobes_scene(true);
     for (Integrator integrator : kIntegrators)
         for (SamplerType sampler : kSamplers) {
             const std::string what =
@@ -122,7 +89,7 @@ TEST(RenderModes, PacketsGiveTheSingleRayImageForEveryIntegratorSamplerAndAssemb
 }
 
 TEST(RenderModes, StreamsAndWavefrontGiveTheSingleRayImage) {
-    const Scene scene = modes_scene(true);
+    const Scene scene = lobes_scene(true);
     for (Integrator integrator : kIntegrators)
         for (SamplerType sampler : {SamplerType::Spt, SamplerType::Cpt}) {
             const std::string what =
@@ -154,7 +121,7 @@ TEST(RenderModes, AutoTraversalTrialsBothAndKeepsTheImage) {
     // Auto with CPT traces pass 0 with single rays and pass 1 with packets,
     // then keeps the faster: whichever it keeps, the image is the
     // single-ray image, and the traversal it reports is one of the two.
-    const Scene scene = modes_scene(true);
+    const Scene scene = lobes_scene(true);
     RenderSettings rs = modes_settings(Integrator::PathTrace, Traversal::Single, SamplerType::Cpt);
     rs.spp = 6;
     const auto single = render(scene, rs);
@@ -174,7 +141,7 @@ TEST(RenderModes, IntegratorsAreThePathTracerWithTheirBounceRules) {
     // Bounces 0. Distribution ray tracing drops diffuse interreflection:
     // path tracing with Diffuse Bounces 0. Same numbers, so same image
     // (without depth of field, which ray casting ignores by design).
-    const Scene scene = modes_scene(false);
+    const Scene scene = lobes_scene(false);
     for (Traversal traversal : {Traversal::Single, Traversal::Packet}) {
         RenderSettings pt0 = modes_settings(Integrator::PathTrace, traversal, SamplerType::Spt);
         pt0.max_bounces = 0;
@@ -189,7 +156,7 @@ TEST(RenderModes, IntegratorsAreThePathTracerWithTheirBounceRules) {
     // contributions, so image means are ordered pt >= drt >= wrt >= rcs; the
     // scene's diffuse interreflection, rough metal and mirror make every gap
     // far larger than the noise at this sample count.
-    const Scene flat = modes_scene(false);
+    const Scene flat = lobes_scene(false);
     double m[4];
     int i = 0;
     for (Integrator integrator : {Integrator::PathTrace, Integrator::Distribution, Integrator::Whitted,
@@ -207,18 +174,18 @@ TEST(RenderModes, WhittedAndRayCastingNeverSampleTheLens) {
     // A pinhole integrator ignores the aperture: the image with depth of
     // field equals the one without, bit for bit.
     for (Integrator integrator : {Integrator::Whitted, Integrator::RayCast}) {
-        const auto with_lens = render(modes_scene(true), modes_settings(integrator, Traversal::Single, SamplerType::Spt));
-        const auto pinhole = render(modes_scene(false), modes_settings(integrator, Traversal::Single, SamplerType::Spt));
+        const auto with_lens = render(lobes_scene(true), modes_settings(integrator, Traversal::Single, SamplerType::Spt));
+        const auto pinhole = render(lobes_scene(false), modes_settings(integrator, Traversal::Single, SamplerType::Spt));
         expect_same_image(with_lens, pinhole, std::string(integrator_name(integrator)));
     }
     // Path tracing does follow the lens.
-    const auto a = render(modes_scene(true), modes_settings(Integrator::PathTrace, Traversal::Single, SamplerType::Spt));
-    const auto b = render(modes_scene(false), modes_settings(Integrator::PathTrace, Traversal::Single, SamplerType::Spt));
+    const auto a = render(lobes_scene(true), modes_settings(Integrator::PathTrace, Traversal::Single, SamplerType::Spt));
+    const auto b = render(lobes_scene(false), modes_settings(Integrator::PathTrace, Traversal::Single, SamplerType::Spt));
     EXPECT_NE(a, b);
 }
 
 TEST(RenderModes, AmbientOcclusionIsAFractionOneOnOpenGroundZeroInsideAClosedBox) {
-    const Scene scene = modes_scene(false);
+    const Scene scene = lobes_scene(false);
     RenderSettings rs = modes_settings(Integrator::AmbientOcclusion, Traversal::Packet, SamplerType::Cpt);
     rs.ao_samples = 16;
     rs.ao_distance = 0.5f;
@@ -263,7 +230,7 @@ TEST(RenderModes, AmbientOcclusionIsAFractionOneOnOpenGroundZeroInsideAClosedBox
 }
 
 TEST(RenderModes, HeatmapsHoldNodeVisitsAndUtilisation) {
-    const Scene scene = modes_scene(false);
+    const Scene scene = lobes_scene(false);
     for (Traversal traversal : {Traversal::Single, Traversal::Packet}) {
         RenderSettings rs = modes_settings(Integrator::PathTrace, traversal, SamplerType::Cpt);
         rs.heatmaps = true;
@@ -308,7 +275,7 @@ TEST(RenderModes, HeatmapsHoldNodeVisitsAndUtilisation) {
 }
 
 TEST(RenderModes, PerBounceStatisticsAddUpToTheTotals) {
-    const Scene scene = modes_scene(false);
+    const Scene scene = lobes_scene(false);
     for (Traversal traversal : {Traversal::Single, Traversal::Packet, Traversal::Stream, Traversal::Wavefront}) {
         RenderStats st;
         render(scene, modes_settings(Integrator::PathTrace, traversal, SamplerType::Cpt), &st);

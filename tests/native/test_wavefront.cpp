@@ -26,33 +26,9 @@ using test::diffuse_material;
 using test::emission_material;
 using test::principled;
 
-// Occluders of every kind AO and path tracing care about: a floor under
-// spheres (contact occlusion), a mirror wall, glass, an area light, and
-// background around it all (camera rays that miss).
-Scene wave_scene() {
-    Scene s;
-    const uint32_t white = s.add_material(diffuse_material(Vec3f(0.7f)));
-    const uint32_t red = s.add_material(diffuse_material(Vec3f(0.8f, 0.2f, 0.1f)));
-    const uint32_t mirror = s.add_material(principled(0.9f, 1.0f, 0.0f, 0.5f, 0.0f));
-    const uint32_t glass = s.add_material(principled(1.0f, 0.0f, 0.0f, 0.5f, 1.0f, 1.45f));
-    const uint32_t light = s.add_material(emission_material(Vec3f(6.0f)));
-    add_quad(s, {0, 0, 0}, {1, 0, 0}, {0, 1, 0}, 6.0f, 6.0f, white, "floor");
-    add_quad(s, {0, 2.5f, 1.5f}, {1, 0, 0}, {0, 0, 1}, 6.0f, 3.0f, mirror, "mirror wall");
-    add_sphere(s, {-1.2f, 0, 1}, 1.0f, red, 12, 24);
-    add_sphere(s, {1.3f, 0.3f, 0.7f}, 0.7f, glass, 12, 24);
-    add_sphere(s, {0.2f, -1.0f, 0.4f}, 0.4f, white, 10, 20);
-    add_quad(s, {0, 0, 4}, {0, 1, 0}, {1, 0, 0}, 2.0f, 2.0f, light, "light");
-    Camera c;
-    c.position = {0.0f, -9.0f, 3.0f};
-    c.forward = normalize(Vec3f(0.0f, 9.0f, -2.5f));
-    c.right = {1.0f, 0.0f, 0.0f};
-    c.up = normalize(cross(c.right, c.forward));
-    c.half_width = c.half_height = 0.6f;
-    s.camera = c;
-    s.world_color = Vec3f(0.1f);
-    s.finalize();
-    return s;
-}
+// Occluders of every kind AO and path tracing care about (contact
+// occlusion, mirror, glass, an area light) and background around them.
+Scene wave_scene() { return test::lobes_scene(false, 9.0f); }
 
 RenderSettings wave_settings(Integrator integrator) {
     RenderSettings rs;
