@@ -173,4 +173,22 @@ inline Vec3f random_unit(std::mt19937& rng) {
     }
 }
 
+// Rays from random points in a box toward random directions, some with the
+// origin far outside so that many miss; some with a positive tmin or a
+// finite tmax.
+inline std::vector<Ray> random_rays(size_t n, uint32_t seed, float extent) {
+    std::mt19937 rng(seed);
+    std::uniform_real_distribution<float> pos(-1.5f * extent, 1.5f * extent);
+    std::uniform_real_distribution<float> unit(0.0f, 1.0f);
+    std::vector<Ray> rays(n);
+    for (auto& r : rays) {
+        r.o = Vec3f(pos(rng), pos(rng), pos(rng));
+        // Un-normalised directions exercise t in units of |d|.
+        r.d = random_unit(rng) * (0.25f + 2.0f * unit(rng));
+        r.tmin = unit(rng) < 0.2f ? 0.5f * unit(rng) : 0.0f;
+        r.tmax = unit(rng) < 0.3f ? 1.0f + 30.0f * unit(rng) : kInf;
+    }
+    return rays;
+}
+
 }  // namespace coherent::testing_meshes

@@ -24,19 +24,6 @@ using namespace coherent::testing_meshes;
 
 namespace {
 
-std::vector<Ray> random_rays(size_t n, uint32_t seed, float extent) {
-    std::mt19937 rng(seed);
-    std::uniform_real_distribution<float> pos(-1.5f * extent, 1.5f * extent);
-    std::uniform_real_distribution<float> unit(0.0f, 1.0f);
-    std::vector<Ray> rays(n);
-    for (auto& r : rays) {
-        r.o = Vec3f(pos(rng), pos(rng), pos(rng));
-        r.d = random_unit(rng) * (0.25f + 2.0f * unit(rng));
-        r.tmin = unit(rng) < 0.2f ? 0.5f * unit(rng) : 0.0f;
-        r.tmax = unit(rng) < 0.3f ? 1.0f + 30.0f * unit(rng) : kInf;
-    }
-    return rays;
-}
 
 // Bitwise equality of two hit records (prim, t, u, v).
 bool same_bits(const Hit& a, const Hit& b) {

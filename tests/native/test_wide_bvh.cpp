@@ -37,19 +37,6 @@ struct Layout {
 constexpr Layout kLayouts[] = {{2}, {4}, {8}};
 constexpr int kLayoutCount = 3;
 
-std::vector<Ray> random_rays(size_t n, uint32_t seed, float extent) {
-    std::mt19937 rng(seed);
-    std::uniform_real_distribution<float> pos(-1.5f * extent, 1.5f * extent);
-    std::uniform_real_distribution<float> unit(0.0f, 1.0f);
-    std::vector<Ray> rays(n);
-    for (auto& r : rays) {
-        r.o = Vec3f(pos(rng), pos(rng), pos(rng));
-        r.d = random_unit(rng) * (0.25f + 2.0f * unit(rng));
-        r.tmin = unit(rng) < 0.2f ? 0.5f * unit(rng) : 0.0f;
-        r.tmax = unit(rng) < 0.3f ? 1.0f + 30.0f * unit(rng) : kInf;
-    }
-    return rays;
-}
 
 // Rays that stress the box tests and the tie rule: zero direction components
 // with origins exactly on the integer node planes of a grid mesh, tiny
