@@ -156,12 +156,6 @@ Timed timed_render(const Scene& scene, const RenderSettings& rs, std::shared_ptr
 
 double ratio(uint64_t a, uint64_t b) { return b ? double(a) / double(b) : 0.0; }
 
-BounceStats sum_bounces(const RenderStats& st) {
-    BounceStats s;
-    for (const BounceStats& b : st.bounces) s += b;
-    return s;
-}
-
 std::string scene_name(const std::string& path) { return std::filesystem::path(path).stem().string(); }
 
 // Relative RMSE of `img` against `ref` (RGBA, RGB compared): sqrt(mean
@@ -194,7 +188,7 @@ void run_speed(const Options& o, const Scene& scene, std::shared_ptr<const Bvh> 
         for (const Method& m : methods) {
             const Timed t = timed_render(scene, method_settings(o, b, m), bvh, o.runs,
                                          std::to_string(b) + " bounces, " + m.name);
-            const BounceStats s = sum_bounces(t.stats);
+            const BounceStats s = t.stats.bounce_total();
             const double mrays = double(s.rays) / t.seconds * 1e-6;
             const double bu = ratio(s.box_lanes_active, s.box_lanes), tu = ratio(s.triangle_lanes_active, s.triangle_lanes);
             std::fprintf(csv, "%s,%d,%s,%dx%d,%.4f,%llu,%.4f,%.4f,%.4f,%.3f,%.3f\n", scene_name(o.scene_path).c_str(), b,

@@ -1,5 +1,7 @@
 #include "json_report.h"
 
+#include <optional>
+
 #include <nlohmann/json.hpp>
 
 namespace coherent::cli {
@@ -7,9 +9,10 @@ namespace {
 
 // A ratio, or null when the denominator is 0 (nothing was measured, which
 // is not the same as a measured 0).
-nlohmann::ordered_json ratio(uint64_t num, uint64_t den) {
-    if (den == 0) return nullptr;
-    return double(num) / double(den);
+// A ratio, or null where nothing was measured (stats.h).
+nlohmann::ordered_json ratio(std::optional<double> r) {
+    if (!r) return nullptr;
+    return *r;
 }
 
 nlohmann::ordered_json bounce_json(int index, const BounceStats& b) {
@@ -19,11 +22,11 @@ nlohmann::ordered_json bounce_json(int index, const BounceStats& b) {
     j["node_visits"] = b.node_visits;
     j["box_tests"] = b.box_tests;
     j["triangle_tests"] = b.triangle_tests;
-    j["node_visits_per_ray"] = ratio(b.node_visits, b.rays);
-    j["box_tests_per_ray"] = ratio(b.box_tests, b.rays);
-    j["triangle_tests_per_ray"] = ratio(b.triangle_tests, b.rays);
-    j["simd_box_utilisation"] = ratio(b.box_lanes_active, b.box_lanes);
-    j["simd_triangle_utilisation"] = ratio(b.triangle_lanes_active, b.triangle_lanes);
+    j["node_visits_per_ray"] = ratio(b.node_visits_per_ray());
+    j["box_tests_per_ray"] = ratio(b.box_tests_per_ray());
+    j["triangle_tests_per_ray"] = ratio(b.triangle_tests_per_ray());
+    j["simd_box_utilisation"] = ratio(b.box_utilisation());
+    j["simd_triangle_utilisation"] = ratio(b.triangle_utilisation());
     j["and_deeper"] = index == kStatBounces - 1;
     return j;
 }
@@ -94,25 +97,14 @@ std::string render_report_json(const RenderReport& r) {
     j["trace_seconds"] = r.stats.trace_seconds;
     j["sort_seconds"] = r.stats.sort_seconds;
 
-    BounceStats all;
-    int last = -1;  // last bounce with rays
-    for (int i = 0; i < kStatBounces; ++i) {
-        all += r.stats.bounces[size_t(i)];
-        if (r.stats.bounces[size_t(i)].rays) last = i;
-    }
-    // Per-ray work from the per-bounce counters, or from the renderer's
-    // overall traversal counters where it keeps no per-bounce ones.
-    if (all.rays == 0) {
-        all.rays = r.stats.traversal.rays;
-        all.node_visits = r.stats.traversal.node_visits;
-        all.box_tests = r.stats.traversal.box_tests;
-        all.triangle_tests = r.stats.traversal.triangle_tests;
-    }
-    j["tests_per_ray"] = {{"node_visits", ratio(all.node_visits, all.rays)},
-                          {"box", ratio(all.box_tests, all.rays)},
-                          {"triangle", ratio(all.triangle_tests, all.rays)}};
-    j["simd_utilisation"] = {{"box", ratio(all.box_lanes_active, all.box_lanes)},
-                             {"triangle", ratio(all.triangle_lanes_active, all.triangle_lanes)}};
+    // Every driver books its work per bounce (path_tracer.h), so the bounces
+    // add up to the render's totals.
+    const BounceStats all = r.stats.bounce_total();
+    const int last = r.stats.deepest_bounce();
+    j["tests_per_ray"] = {{"node_visits", ratio(all.node_visits_per_ray())},
+                          {"box", ratio(all.box_tests_per_ray())},
+                          {"triangle", ratio(all.triangle_tests_per_ray())}};
+    j["simd_utilisation"] = {{"box", ratio(all.box_utilisation())}, {"triangle", ratio(all.triangle_utilisation())}};
     nlohmann::ordered_json bounces = nlohmann::ordered_json::array();
     for (int i = 0; i <= last; ++i) bounces.push_back(bounce_json(i, r.stats.bounces[size_t(i)]));
     j["bounces"] = bounces;

@@ -36,9 +36,7 @@ PassType pass_from_name(const std::string& name) {
 }
 
 // A ratio, or None when the denominator is 0 (nothing measured is not a measured 0).
-py::object ratio_object(uint64_t num, uint64_t den) {
-    return den ? py::object(py::float_(double(num) / double(den))) : py::object(py::none());
-}
+py::object ratio_object(std::optional<double> r) { return r ? py::object(py::float_(*r)) : py::object(py::none()); }
 
 py::dict bounce_dict(int index, const BounceStats& b) {
     py::dict d;
@@ -51,11 +49,11 @@ py::dict bounce_dict(int index, const BounceStats& b) {
     d["box_lanes_active"] = b.box_lanes_active;
     d["triangle_lanes"] = b.triangle_lanes;
     d["triangle_lanes_active"] = b.triangle_lanes_active;
-    d["node_visits_per_ray"] = ratio_object(b.node_visits, b.rays);
-    d["box_tests_per_ray"] = ratio_object(b.box_tests, b.rays);
-    d["triangle_tests_per_ray"] = ratio_object(b.triangle_tests, b.rays);
-    d["simd_box_utilisation"] = ratio_object(b.box_lanes_active, b.box_lanes);
-    d["simd_triangle_utilisation"] = ratio_object(b.triangle_lanes_active, b.triangle_lanes);
+    d["node_visits_per_ray"] = ratio_object(b.node_visits_per_ray());
+    d["box_tests_per_ray"] = ratio_object(b.box_tests_per_ray());
+    d["triangle_tests_per_ray"] = ratio_object(b.triangle_tests_per_ray());
+    d["simd_box_utilisation"] = ratio_object(b.box_utilisation());
+    d["simd_triangle_utilisation"] = ratio_object(b.triangle_utilisation());
     d["and_deeper"] = index == kStatBounces - 1;  // the last slot collects every deeper bounce
     return d;
 }
@@ -319,18 +317,13 @@ private:
         d["traversal"] = t;
 
         // Per-bounce work (stats.h BounceStats), trailing empty bounces left out.
-        BounceStats all;
-        int last = -1;
-        for (int i = 0; i < kStatBounces; ++i) {
-            all += s.bounces[size_t(i)];
-            if (s.bounces[size_t(i)].rays) last = i;
-        }
+        const BounceStats all = s.bounce_total();
         py::list bounces;
-        for (int i = 0; i <= last; ++i) bounces.append(bounce_dict(i, s.bounces[size_t(i)]));
+        for (int i = 0; i <= s.deepest_bounce(); ++i) bounces.append(bounce_dict(i, s.bounces[size_t(i)]));
         d["bounces"] = bounces;
         py::dict simd;
-        simd["box"] = ratio_object(all.box_lanes_active, all.box_lanes);
-        simd["triangle"] = ratio_object(all.triangle_lanes_active, all.triangle_lanes);
+        simd["box"] = ratio_object(all.box_utilisation());
+        simd["triangle"] = ratio_object(all.triangle_utilisation());
         d["simd_utilisation"] = simd;
         d["rays_per_second"] = s.seconds > 0.0 ? double(s.total_rays()) / s.seconds : 0.0;
         d["trace_seconds"] = s.trace_seconds;

@@ -3,6 +3,7 @@
 
 #include <array>
 #include <cstdint>
+#include <optional>
 #include <string>
 
 #include "../accel/bvh.h"
@@ -25,6 +26,19 @@ struct BounceStats {
     uint64_t box_lanes = 0, box_lanes_active = 0;
     uint64_t triangle_lanes = 0, triangle_lanes_active = 0;
     BounceStats& operator+=(const BounceStats& o);
+
+    // Per-ray work and SIMD utilisation; empty where nothing was measured
+    // (no rays, no packet lanes): a missing measurement is not a 0.
+    std::optional<double> node_visits_per_ray() const { return ratio(node_visits, rays); }
+    std::optional<double> box_tests_per_ray() const { return ratio(box_tests, rays); }
+    std::optional<double> triangle_tests_per_ray() const { return ratio(triangle_tests, rays); }
+    std::optional<double> box_utilisation() const { return ratio(box_lanes_active, box_lanes); }
+    std::optional<double> triangle_utilisation() const { return ratio(triangle_lanes_active, triangle_lanes); }
+
+private:
+    static std::optional<double> ratio(uint64_t num, uint64_t den) {
+        return den ? std::optional<double>(double(num) / double(den)) : std::nullopt;
+    }
 };
 constexpr int kStatBounces = 8;
 
@@ -48,6 +62,19 @@ struct RenderStats {
     // while unknown (fewer than 2 passes).
     double error_estimate = -1.0;
     double seconds = 0.0;
+
+    // All bounces together, and the deepest bounce that traced a ray (-1: none).
+    BounceStats bounce_total() const {
+        BounceStats all;
+        for (const BounceStats& b : bounces) all += b;
+        return all;
+    }
+    int deepest_bounce() const {
+        int last = -1;
+        for (int i = 0; i < kStatBounces; ++i)
+            if (bounces[size_t(i)].rays) last = i;
+        return last;
+    }
 
     uint64_t total_rays() const {
         uint64_t n = 0;
