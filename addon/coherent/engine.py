@@ -302,6 +302,9 @@ class CoherentRenderEngine(bpy.types.RenderEngine):
         tracing = tracing_summary(renderer.settings, stats)
         print(tracing)
         self.report({"INFO"}, tracing)
+        if props.use_pass_bvh_visits and not renderer.settings["counts_path_visits"]:
+            self._warn(f"the BVH Visits pass is zero: {renderer.settings['traversal']} traversal does not count "
+                       f"visits per pixel")
         if stats.get("nonfinite_samples"):
             self._warn(f"{stats['nonfinite_samples']} samples were NaN/Inf and discarded")
         if finished and props.write_convergence:

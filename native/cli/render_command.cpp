@@ -115,12 +115,11 @@ int render(const RenderOptions& options) {
     std::vector<HeatmapImage> heatmaps;
     if (settings.heatmaps) {
         // Written even when empty, so a script finds the files it asked for;
-        // the warning says why they are all zero.
-        if (!renderer.film().has_heatmaps())
+        // the warning says why the visits are all zero.
+        if (!traversal_counts_path_visits(renderer.settings().traversal))
             std::fprintf(stderr,
-                         "coherent: warning: the renderer recorded no heatmap samples for --integrator %s "
-                         "--traversal %s; the heatmaps are zero\n",
-                         std::string(integrator_name(settings.integrator)).c_str(),
+                         "coherent: warning: --traversal %s does not count BVH visits per path; the BVH visits "
+                         "heatmap is zero\n",
                          std::string(traversal_name(renderer.settings().traversal)).c_str());
         if (!write_heatmaps(options.output, renderer.film(), heatmaps, error)) {
             print_error(error);

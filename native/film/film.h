@@ -82,7 +82,6 @@ public:
     // as means over these samples. Precondition of adding: enabled.
     void enable_heatmaps();
     void add_heatmap_sample(int x, int y, float node_visits, float simd_utilisation);
-    bool has_heatmaps() const { return !heat_.empty(); }
 
     void clear();
 

@@ -71,6 +71,7 @@ py::dict settings_dict(const RenderSettings& s) {
     d["ao_samples"] = s.ao_samples;
     d["ao_distance"] = s.ao_distance;
     d["heatmaps"] = s.heatmaps;
+    d["counts_path_visits"] = traversal_counts_path_visits(s.traversal);  // the BVH Visits heatmap is not 0
     d["packet"] = py::make_tuple(s.packet_width, s.packet_height);
     d["sampler"] = std::string(sampler_type_name(s.resolved_sampler()));
     return d;

@@ -55,6 +55,11 @@ constexpr Traversal resolve_traversal(Traversal requested, SamplerType resolved_
     return resolved_sampler == SamplerType::Cpt ? Traversal::Packet : Traversal::Single;
 }
 
+// Whether a traversal attributes BVH node visits to each path, which the
+// "BVH Visits" heatmap shows: streams count their work per node queue, not
+// per ray, so with them that heatmap is zero.
+constexpr bool traversal_counts_path_visits(Traversal t) { return t != Traversal::Stream; }
+
 // Packet assembly of secondary rays after every bounce (Boulos et al. 2007,
 // section 3.2), within each packet of pixels:
 //   RayType: one packet per ray type (shadow, diffuse, glossy, reflection,

@@ -153,7 +153,8 @@ void render_tile_streams(const TileJob& job, RenderStats& st) {
         }
     StreamScratch scratch;
     trace_batch_streams<ImageSampler, kGlass, kLights>(*job.ctx, batch, scratch, st);
-    // Streams keep no per-ray visit counts: the heatmaps stay empty (0).
+    // Streams keep no per-ray visit counts (traversal_counts_path_visits):
+    // the BVH Visits heatmap stays 0.
     for (size_t p = 0; p < batch.size(); ++p) job.add(batch.px[p], batch.py[p], batch.states[p].out, 0.0f, 1.0f, st);
 }
 

@@ -246,6 +246,18 @@ def test_heatmap_passes_in_multilayer_exr(blender, blend_scenes, tmp_path):
     assert (simd[geometry] > 0).all()
 
 
+def test_bvh_visits_pass_warns_with_streams(blender, blend_scenes, tmp_path):
+    # Streams count visits per node queue, not per pixel: the pass is zero,
+    # and the render says why instead of leaving a silent black pass.
+    settings = bh.python_expr("scene.coherent.use_pass_bvh_visits = True", "scene.coherent.traversal = 'STREAM'")
+    result = blender(blend_scenes / "cornell_box.blend", "-E", bh.ENGINE_ID, "-F", "OPEN_EXR_MULTILAYER",
+                     "-o", tmp_path / "stream_####", "--python-expr", SMALL, "--python-expr", settings, "-f", "1")
+    assert result.returncode == 0, result.describe()
+    assert "the BVH Visits pass is zero: stream traversal does not count visits per pixel" in result.output
+    visits = bh.find_channels(bh.read_image_channels(tmp_path / "stream_0001.exr"), "BVH Visits", "X")[..., 0]
+    assert (visits == 0).all()
+
+
 def test_heatmap_passes_off_by_default(blender, blend_scenes, tmp_path):
     result = blender(blend_scenes / "cornell_box.blend", "-E", bh.ENGINE_ID, "-F", "OPEN_EXR_MULTILAYER",
                      "-o", tmp_path / "plain_####", "--python-expr", SMALL, "-f", "1")

@@ -298,6 +298,18 @@ def heatmap_render(cli, tmp_path_factory):
     return d, out, json.loads(r.stdout), r
 
 
+def test_heatmaps_warn_where_visits_are_not_counted(cli, tmp_path, heatmap_render):
+    # Streams count BVH visits per node queue, not per pixel: the visits
+    # heatmap is zero and the CLI says so; packets count them, silently.
+    assert "does not count BVH visits" not in heatmap_render[3].stderr
+    r = run(cli, "render", CORNELL, "-o", tmp_path / "s.exr", "--res", 16, 12, "--spp", 1, "--traversal", "stream",
+            "--heatmaps")
+    assert r.returncode == 0, r.stderr
+    assert "--traversal stream does not count BVH visits per path" in r.stderr
+    _, _, values = exr_values(tmp_path / "s.bvh_visits.exr", "Y")
+    assert max(values) == 0.0
+
+
 def test_heatmap_files_are_written(heatmap_render):
     d, out, stats, r = heatmap_render
     names = sorted(p.name for p in d.iterdir())
