@@ -41,6 +41,17 @@ struct PathBatch {
     std::vector<uint32_t> node_visits;
     std::vector<uint64_t> lanes, lanes_active;
 
+    // Starts the camera path of pixel (x, y)'s sample (the renderer's and
+    // every batched driver's one way to fill a batch).
+    template <bool kDepthOfField>
+    void start(const PathContext& ctx, const Sampler& sampler, uint32_t sample, int x, int y) {
+        samplers.emplace_back(sampler, uint32_t(x), uint32_t(y), sample);
+        states.emplace_back();
+        start_path<Sampler, kDepthOfField>(ctx, samplers.back(), x, y, states.back());
+        px.push_back(x);
+        py.push_back(y);
+    }
+
     void clear() {
         states.clear();
         samplers.clear();

@@ -85,12 +85,7 @@ void render_tile_packets(const TileJob& job, RenderStats& st) {
     PathBatch<ImageSampler> batch;
     batch.clear();
     auto add_path = [&](int x, int y) {
-        if (job.skip(x, y)) return;
-        batch.samplers.emplace_back(*job.sampler, uint32_t(x), uint32_t(y), job.sample);
-        batch.states.emplace_back();
-        start_path<ImageSampler, kDepthOfField>(*job.ctx, batch.samplers.back(), x, y, batch.states.back());
-        batch.px.push_back(x);
-        batch.py.push_back(y);
+        if (!job.skip(x, y)) batch.template start<kDepthOfField>(*job.ctx, *job.sampler, job.sample, x, y);
     };
     auto end_packet = [&] {
         if (int(batch.size()) > batch.packet_begin.back()) batch.packet_begin.push_back(int(batch.size()));
@@ -144,12 +139,7 @@ void render_tile_streams(const TileJob& job, RenderStats& st) {
     batch.clear();
     for (int y = job.y0; y < job.y1; ++y)
         for (int x = job.x0; x < job.x1; ++x) {
-            if (job.skip(x, y)) continue;
-            batch.samplers.emplace_back(*job.sampler, uint32_t(x), uint32_t(y), job.sample);
-            batch.states.emplace_back();
-            start_path<ImageSampler, kDepthOfField>(*job.ctx, batch.samplers.back(), x, y, batch.states.back());
-            batch.px.push_back(x);
-            batch.py.push_back(y);
+            if (!job.skip(x, y)) batch.template start<kDepthOfField>(*job.ctx, *job.sampler, job.sample, x, y);
         }
     StreamScratch scratch;
     trace_batch_streams<ImageSampler, kGlass, kLights>(*job.ctx, batch, scratch, st);
