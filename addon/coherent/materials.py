@@ -72,7 +72,7 @@ class MaterialConverter:
     def __init__(self, native_scene, warnings):
         self.scene = native_scene
         self.warnings = warnings  # list of str shared with the exporter
-        self._cache = {}  # material key -> native index
+        self._cache = {}  # original material pointer -> native index
         self._warned = set()
 
     # -- public -------------------------------------------------------------
@@ -88,6 +88,10 @@ class MaterialConverter:
             index = self.scene.add_material(material.name, closures=closures, weights=weights, emission=emission)
             self._cache[key] = index
         return index
+
+    def native_indices(self):
+        """{original material pointer: native index} of every material converted so far (a copy)."""
+        return dict(self._cache)
 
     def convert(self, material):
         """(closures, weights, emission) for add_material."""

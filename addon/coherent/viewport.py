@@ -271,7 +271,7 @@ class ViewportSession:
             return
 
         changed = False
-        material_indices = self.exporter.materials._cache  # original material pointer -> native index
+        material_indices = self.exporter.materials.native_indices()  # original pointer -> native index
         if all_materials:
             by_pointer = {m.as_pointer(): m for m in bpy.data.materials}
             for pointer in material_indices:
