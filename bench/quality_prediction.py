@@ -3,7 +3,7 @@
 
 For each scene and sampler (SPT, CPT, ICPT): a short pilot render records
 (seconds, spp, error_estimate) per pass (`coherent render --convergence`),
-the add-on's model (addon/coherent/quality.py, loaded without Blender) fits
+the add-on's model (addon/coherent/quality_model.py, loaded without Blender) fits
 it and predicts, per error level, the passes and seconds to reach it. Then a
 real render per sampler and level runs with `--target-error E` and reports
 the seconds and passes it actually took (one render per seed). Three pilots
@@ -42,7 +42,8 @@ CASES = (
 
 
 def load_model():
-    spec = importlib.util.spec_from_file_location("coherent_quality_model", REPO / "addon" / "coherent" / "quality.py")
+    path = REPO / "addon" / "coherent" / "quality_model.py"
+    spec = importlib.util.spec_from_file_location("coherent_quality_model", path)
     module = importlib.util.module_from_spec(spec)
     sys.modules[spec.name] = module
     spec.loader.exec_module(module)
@@ -194,7 +195,7 @@ def write_markdown(rows, commands, args, path, elapsed, loads):
              f"`--threads {args.threads}`; the bench took {elapsed:.0f} s; load average (1/5/15 min) "
              f"{'/'.join(f'{v:.1f}' for v in loads[0])} before, {'/'.join(f'{v:.1f}' for v in loads[1])} after "
              "(other engineers compiling and testing on the same 2 cores).", "",
-             "The add-on's Quality Cost panel (addon/coherent/quality.py) renders a short pilot per sampler and "
+             "The add-on's Quality Cost panel (addon/coherent/operators.py) renders a short pilot per sampler and "
              "predicts the render time to reach each error level (the Target Error stopping rule: the even/odd "
              "half-buffer estimate of the image's relative RMSE). Model: error = c / sqrt(spp) fitted in log space "
              "on the later half of the pilot's passes; seconds = overhead + spp * seconds per pass; predicted spp "

@@ -1,10 +1,12 @@
 # SPDX-License-Identifier: Apache-2.0
 """Coherent: a CPU ray tracer for Blender built on coherent ray traversal.
 
-Package layout (imitating Cycles): engine.py holds the RenderEngine,
-export.py and materials.py turn the depsgraph into a native scene,
-properties.py the settings stored in the .blend, ui.py the panels. The native
-module `_coherent` (built by CMake into this folder) does all heavy work.
+Package layout (imitating Cycles' add-on): engine.py holds the RenderEngine,
+properties.py the settings stored in the .blend, operators.py the operators,
+ui.py the panels. export.py and materials.py (with motion.py) turn the
+depsgraph into a native scene; viewport.py runs the Rendered viewport.
+quality_model.py is the Quality Cost model, plain Python. The native module
+`_coherent` (built by CMake into this folder) does all heavy work.
 """
 
 bl_info = {
@@ -23,7 +25,8 @@ bl_info = {
 if "bpy" in locals():
     import importlib
 
-    for _name in ("materials", "export", "viewport", "properties", "engine", "ui", "quality"):
+    for _name in ("quality_model", "materials", "motion", "export", "viewport", "properties", "engine",
+                  "operators", "ui"):
         if _name in locals():
             importlib.reload(locals()[_name])
 
@@ -32,7 +35,7 @@ import sys
 
 import bpy
 
-from . import engine, export, materials, properties, quality, ui, viewport
+from . import engine, export, materials, operators, properties, quality_model, ui, viewport
 
 _native = None
 _native_error = None
@@ -67,8 +70,8 @@ def register():
         return
     properties.register()
     bpy.utils.register_class(engine.CoherentRenderEngine)
+    operators.register()
     ui.register()
-    quality.register()  # after ui: its panel is a child of the sampling panel
     _registered = True
     try:
         native_module()
@@ -83,8 +86,8 @@ def unregister():
     global _registered
     if not _registered:
         return
-    quality.unregister()
     ui.unregister()
+    operators.unregister()  # stops a running estimate before its settings go
     bpy.utils.unregister_class(engine.CoherentRenderEngine)
     properties.unregister()
     _registered = False

@@ -1,10 +1,15 @@
 # SPDX-License-Identifier: Apache-2.0
-"""Render settings stored in the .blend file: `scene.coherent`."""
+"""Settings stored in the .blend file: `scene.coherent` (render settings) and
+`scene.coherent_quality` (the Quality Cost estimate's settings and table)."""
 
 from __future__ import annotations
 
 import bpy
-from bpy.props import BoolProperty, EnumProperty, FloatProperty, IntProperty, IntVectorProperty, PointerProperty
+from bpy.props import (BoolProperty, CollectionProperty, EnumProperty, FloatProperty, FloatVectorProperty,
+                       IntProperty, IntVectorProperty, PointerProperty, StringProperty)
+
+from .quality_model import (DEFAULT_LEVELS, DEFAULT_MIN_PASSES, DEFAULT_PILOT_MAX_PIXELS, DEFAULT_PILOT_SECONDS,
+                            SAMPLERS)
 
 
 class CoherentRenderSettings(bpy.types.PropertyGroup):
@@ -201,7 +206,52 @@ class CoherentRenderSettings(bpy.types.PropertyGroup):
         return h
 
 
-classes = (CoherentRenderSettings,)
+# --- Quality Cost (quality_model.py, operators.py) --------------------------------
+
+QUALITY_SAMPLER_ITEMS = tuple((s, s, "") for s in SAMPLERS)
+
+
+class CoherentQualityRow(bpy.types.PropertyGroup):
+    """One error level of the table: predicted spp and seconds per sampler (SAMPLERS order)."""
+    error: FloatProperty(name="Error", subtype="FACTOR", precision=3)
+    spp: IntVectorProperty(name="Samples", size=len(SAMPLERS))
+    seconds: FloatVectorProperty(name="Seconds", size=len(SAMPLERS))
+    fastest: EnumProperty(name="Fastest", items=QUALITY_SAMPLER_ITEMS)
+
+
+class CoherentQualityFitInfo(bpy.types.PropertyGroup):
+    """A pilot's fit, for display and scripting."""
+    sampler: EnumProperty(name="Sampler", items=QUALITY_SAMPLER_ITEMS)
+    c: FloatProperty(name="Error at 1 spp")
+    exponent: FloatProperty(name="Fitted Exponent")
+    seconds_per_pass: FloatProperty(name="Seconds per Pass (film resolution)")
+    pilot_spp: IntProperty(name="Pilot Passes")
+    pilot_seconds: FloatProperty(name="Pilot Seconds")
+
+
+class CoherentQualitySettings(bpy.types.PropertyGroup):
+    """`scene.coherent_quality`: what to estimate, and the latest estimate's table."""
+    levels: FloatVectorProperty(
+        name="Error Levels", description="Relative RMSE levels to predict the render time for",
+        size=len(DEFAULT_LEVELS), default=DEFAULT_LEVELS, min=1e-4, max=10.0, precision=3)
+    pilot_seconds: FloatProperty(
+        name="Pilot Time", description="Seconds of pilot rendering per sampler (at least "
+                                       f"{DEFAULT_MIN_PASSES} passes are taken whatever this says)",
+        default=DEFAULT_PILOT_SECONDS, min=0.05, max=60.0, unit="TIME_ABSOLUTE", subtype="TIME_ABSOLUTE")
+    pilot_max_pixels: IntProperty(
+        name="Pilot Pixels", description="Pilots render larger frames scaled down to about this many pixels "
+                                         "and scale the time per pass back up by the pixel count; a "
+                                         "scaled-down pilot over-predicts the samples needed (about 1.3x at "
+                                         "half the width and height)",
+        default=DEFAULT_PILOT_MAX_PIXELS, min=64, max=1 << 24)
+    rows: CollectionProperty(type=CoherentQualityRow)
+    fits: CollectionProperty(type=CoherentQualityFitInfo)
+    film_size: IntVectorProperty(name="Film Size", size=2)
+    pilot_size: IntVectorProperty(name="Pilot Size", size=2)
+    status: StringProperty(name="Status")
+
+
+classes = (CoherentRenderSettings, CoherentQualityRow, CoherentQualityFitInfo, CoherentQualitySettings)
 
 
 def register():
@@ -209,9 +259,12 @@ def register():
         bpy.utils.register_class(cls)
     bpy.types.Scene.coherent = PointerProperty(
         name="Coherent Render Settings", description="Coherent render settings", type=CoherentRenderSettings)
+    bpy.types.Scene.coherent_quality = PointerProperty(type=CoherentQualitySettings, name="Coherent Quality Cost")
 
 
 def unregister():
+    if hasattr(bpy.types.Scene, "coherent_quality"):
+        del bpy.types.Scene.coherent_quality
     if hasattr(bpy.types.Scene, "coherent"):
         del bpy.types.Scene.coherent
     for cls in reversed(classes):

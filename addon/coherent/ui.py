@@ -1,16 +1,20 @@
 # SPDX-License-Identifier: Apache-2.0
 """Properties-editor panels for the Coherent engine.
 
-Our own panels (sampling, light paths, film, performance, light, passes) are
-shown only when Coherent is the active engine. Blender's generic panels
-(output, format, camera, material and world node surfaces, ...) are made
-visible for Coherent by adding 'COHERENT' to their COMPAT_ENGINES, the same
-mechanism Cycles uses; unregister() removes exactly what register() added.
+Our own panels (sampling, quality cost, tracing, light paths, film,
+performance, light, passes) are shown only when Coherent is the active
+engine. Blender's generic panels (output, format, camera, material and world
+node surfaces, ...) are made visible for Coherent by adding 'COHERENT' to
+their COMPAT_ENGINES, the same mechanism Cycles uses; unregister() removes
+exactly what register() added.
 """
 
 from __future__ import annotations
 
 import bpy
+
+from . import operators
+from .quality_model import SAMPLERS, format_duration
 
 ENGINE = "COHERENT"
 
@@ -72,6 +76,51 @@ class RENDER_PT_coherent_adaptive(CoherentButtonsPanel, bpy.types.Panel):
         col.active = props.use_adaptive_sampling
         col.prop(props, "adaptive_threshold", text="Noise Threshold")
         col.prop(props, "adaptive_min_samples", text="Min Samples")
+
+
+class RENDER_PT_coherent_quality_cost(CoherentButtonsPanel, bpy.types.Panel):
+    """What reaching each error level costs, per sampler (operators.py estimates it)."""
+    bl_label = "Quality Cost"
+    bl_context = "render"
+    bl_parent_id = "RENDER_PT_coherent_sampling"
+    bl_options = {"DEFAULT_CLOSED"}
+
+    def draw(self, context):
+        layout = self.layout
+        st = context.scene.coherent_quality
+        col = layout.column(align=True)
+        col.use_property_split = True
+        col.use_property_decorate = False
+        col.prop(st, "levels")
+        col.prop(st, "pilot_seconds")
+        col.prop(st, "pilot_max_pixels")
+        if operators.quality_estimate_running():
+            layout.operator(operators.COHERENT_OT_cancel_quality_cost.bl_idname, icon="CANCEL")
+        else:
+            layout.operator(operators.COHERENT_OT_estimate_quality_cost.bl_idname, icon="TIME")
+        if st.status:
+            layout.label(text=st.status)
+        if not st.rows:
+            return
+        grid = layout.grid_flow(row_major=True, columns=len(SAMPLERS) + 1, even_columns=True, align=True)
+        grid.label(text="Error")
+        for s in SAMPLERS:
+            grid.label(text=s)
+        for r, row in enumerate(st.rows):
+            grid.label(text=f"{row.error:.1%}")
+            for i, s in enumerate(SAMPLERS):
+                fastest = s == row.fastest
+                op = grid.operator(operators.COHERENT_OT_apply_quality_choice.bl_idname, depress=fastest,
+                                   icon="CHECKMARK" if fastest else "NONE",
+                                   text=f"{format_duration(row.seconds[i])} · {row.spp[i]} spp")
+                op.row = r
+                op.sampler = s
+        layout.label(text="Click a cell to use its sampler and error level.", icon="INFO")
+        sub = layout.column(align=True)
+        sub.scale_y = 0.8
+        for f in st.fits:
+            sub.label(text=f"{f.sampler}: {f.pilot_spp} passes in {f.pilot_seconds:.2f} s, "
+                           f"{format_duration(f.seconds_per_pass)} per pass, fitted exponent {f.exponent:.2f}")
 
 
 class RENDER_PT_coherent_tracing(CoherentButtonsPanel, bpy.types.Panel):
@@ -230,6 +279,7 @@ class VIEWLAYER_PT_coherent_passes(CoherentButtonsPanel, bpy.types.Panel):
 classes = (
     RENDER_PT_coherent_sampling,
     RENDER_PT_coherent_adaptive,
+    RENDER_PT_coherent_quality_cost,
     RENDER_PT_coherent_tracing,
     RENDER_PT_coherent_light_paths,
     RENDER_PT_coherent_film,

@@ -1,4 +1,4 @@
-# The "what does quality cost" helper (addon/coherent/quality.py) in Blender:
+# The "what does quality cost" helper (addon/coherent/operators.py, quality_model.py) in Blender:
 # the Estimate Quality Cost operator on the repository's Cornell box, its
 # table, the Apply button, a real render checked against the prediction,
 # failure on an empty scene, and (in a real window under Xvfb) the
@@ -162,7 +162,8 @@ GUI_DRIVER = textwrap.dedent(r'''
     import bpy
 
     out = sys.argv[sys.argv.index("--") + 1]
-    quality = sys.modules["coherent"].quality
+    quality = sys.modules["coherent"].operators  # the estimate's state
+    ui = sys.modules["coherent"].ui
     scene = bpy.context.scene
     scene.render.engine = "COHERENT"
     scene.render.resolution_percentage = 25          # 128x128 film
@@ -175,7 +176,7 @@ GUI_DRIVER = textwrap.dedent(r'''
     # The Quality Cost panel is a closed sub-panel; draw the same draw() in a
     # top-level open panel of the window's Properties editor, and count the
     # draws that showed a table.
-    class RENDER_PT_test_quality_cost(quality.RENDER_PT_coherent_quality_cost):
+    class RENDER_PT_test_quality_cost(ui.RENDER_PT_coherent_quality_cost):
         bl_idname = "RENDER_PT_test_quality_cost"
         bl_parent_id = ""
         bl_options = set()
