@@ -4,9 +4,12 @@
 Package layout (imitating Cycles' add-on): engine.py holds the RenderEngine,
 properties.py the settings stored in the .blend, operators.py the operators,
 ui.py the panels. export.py and materials.py (with motion.py) turn the
-depsgraph into a native scene; viewport.py runs the Rendered viewport.
-quality_model.py is the Quality Cost model, plain Python. The native module
-`_coherent` (built by CMake into this folder) does all heavy work.
+depsgraph into a native scene; viewport.py runs the Rendered viewport from
+viewport_sync.py (depsgraph updates into the native scene),
+viewport_render.py (the progressive restarts) and viewport_draw.py (the GPU
+texture). quality_model.py is the Quality Cost model, plain Python. The
+native module `_coherent` (built by CMake into this folder) does all heavy
+work.
 """
 
 bl_info = {
@@ -25,8 +28,8 @@ bl_info = {
 if "bpy" in locals():
     import importlib
 
-    for _name in ("quality_model", "materials", "motion", "export", "viewport", "properties", "engine",
-                  "operators", "ui"):
+    for _name in ("quality_model", "materials", "motion", "export", "viewport_sync", "viewport_render",
+                  "viewport_draw", "viewport", "properties", "engine", "operators", "ui"):
         if _name in locals():
             importlib.reload(locals()[_name])
 
