@@ -12,24 +12,107 @@ from .quality_model import (DEFAULT_LEVELS, DEFAULT_MIN_PASSES, DEFAULT_PILOT_MA
                             SAMPLERS)
 
 
+# Blender property -> (settings-table row, overrides). The row gives the
+# property's type, enum items, range, default and tooltip (the native
+# module's settings_table(), read at registration); an override is only
+# where Blender's conventions differ: two sample counts, Blender's own
+# defaults for a final render, units. Table rows not listed here are not
+# Blender properties: width, height and transparent come from Blender's own
+# render settings, heatmaps from the passes below, progressive_display and
+# force_all_features from the front end.
+TABLE_PROPERTIES = {
+    "samples": ("spp", dict(description="Samples per pixel for final renders", default=64)),
+    "preview_samples": ("spp", dict(name="Viewport Samples", description="Samples per pixel for viewport renders",
+                                    default=16, soft_max=1024)),
+    "target_error": ("target_error", dict(step=0.1, precision=3, subtype="FACTOR")),
+    "time_limit": ("time_limit", dict(unit="TIME_ABSOLUTE", subtype="TIME_ABSOLUTE")),
+    "seed": ("seed", {}),
+    "sampler": ("sampler", dict(default="AUTO")),
+    "packet_size": ("packet", {}),
+    "use_adaptive_sampling": ("adaptive", {}),
+    "adaptive_threshold": ("adaptive_threshold", dict(step=0.1, precision=4)),
+    "adaptive_min_samples": ("adaptive_min_samples", {}),
+    "integrator": ("integrator", {}),
+    "traversal": ("traversal", {}),
+    "assembly": ("assembly", {}),
+    "bvh_width": ("bvh_width", {}),
+    "reorder": ("reorder", {}),
+    "wave_size": ("wave_size", dict(soft_min=1024)),
+    "ao_samples": ("ao_samples", {}),
+    "ao_distance": ("ao_distance", dict(subtype="DISTANCE", unit="LENGTH")),
+    "max_bounces": ("max_bounces", {}),
+    "diffuse_bounces": ("diffuse_bounces", {}),
+    "glossy_bounces": ("glossy_bounces", {}),
+    "transmission_bounces": ("transmission_bounces", {}),
+    "clamp_direct": ("clamp_direct", {}),
+    "clamp_indirect": ("clamp_indirect", {}),
+    "threads": ("threads", dict(description="Render threads; 0 uses Blender's Performance > Threads setting "
+                                            "(all cores when set to Auto-Detect)")),
+    "tile_size": ("tile_size", {}),
+}
+# Set by renderer_kwargs' callers: samples and seed differ between final
+# render and viewport, and the stopping rules apply to final renders only.
+FRONT_END_ROWS = {"spp", "seed", "target_error", "time_limit"}
+
+INT32_MAX = (1 << 31) - 1
+
+
+def _tooltip(text):
+    return text[:1].upper() + text[1:]
+
+
+def _int32(v):
+    return int(max(-INT32_MAX - 1, min(INT32_MAX, v)))
+
+
+def table_property(row, **overrides):
+    """A bpy property built from one settings-table row (see _coherent.settings_table())."""
+    kind = row["type"]
+    args = dict(name=row["label"], description=_tooltip(row["help"]))
+    if kind == "bool":
+        args.update(default=row["default"])
+        return BoolProperty(**{**args, **overrides})
+    if kind == "choice" or (kind == "int" and row["allowed"]):
+        # Enum identifiers are the native names upper-cased (saved .blend files
+        # store identifiers); native_value() lowers them again.
+        if kind == "choice":
+            items = tuple((n.upper(), label, _tooltip(h)) for n, label, h, hidden in row["choices"] if not hidden)
+        else:
+            items = tuple((str(v), str(v), f"{row['label']} {v}") for v in row["allowed"])
+        args.update(items=items, default=str(row["default"]).upper())
+        return EnumProperty(**{**args, **overrides})
+    if kind in ("int", "seed"):
+        args.update(default=_int32(row["default"]), min=_int32(row["min"]) if kind == "int" else 0,
+                    max=_int32(row["max"]) if kind == "int" else INT32_MAX)
+        if kind == "int":
+            args.update(soft_max=_int32(row["soft_max"]))
+        return IntProperty(**{**args, **overrides})
+    if kind == "real":
+        args.update(default=row["default"], min=row["min"], max=row["max"], soft_max=row["soft_max"])
+        return FloatProperty(**{**args, **overrides})
+    if kind == "size":
+        args.update(size=2, default=tuple(row["default"]), min=_int32(row["min"]), max=_int32(row["max"]))
+        return IntVectorProperty(**{**args, **overrides})
+    raise ValueError(f"settings table row {row['name']!r}: unknown type {kind!r}")
+
+
+def native_value(row, value):
+    """A Blender property value as Renderer(...) takes it."""
+    if row["type"] == "choice":
+        return value.lower()
+    if row["type"] == "int" and row["allowed"]:
+        return int(value)
+    if row["type"] == "size":
+        return tuple(int(v) for v in value)
+    return value
+
+
+_table = {}  # row name -> row, filled at registration from the native module
+
+
 class CoherentRenderSettings(bpy.types.PropertyGroup):
-    samples: IntProperty(
-        name="Samples", description="Samples per pixel for final renders",
-        default=64, min=1, max=1 << 24, soft_max=4096)
-    preview_samples: IntProperty(
-        name="Viewport Samples", description="Samples per pixel for viewport renders",
-        default=16, min=1, max=1 << 24, soft_max=1024)
-    # Stopping rules for final renders; whichever of Samples, Target Error
-    # and Time Limit comes first ends the render.
-    target_error: FloatProperty(
-        name="Target Error", description="Stop the final render once its estimated relative RMSE (from the "
-                                         "even and odd sample passes, no reference needed) is at most this; "
-                                         "0 = off",
-        default=0.0, min=0.0, max=10.0, soft_max=0.2, step=0.1, precision=3, subtype="FACTOR")
-    time_limit: FloatProperty(
-        name="Time Limit", description="Stop the final render after the sample pass that ends past this many "
-                                       "seconds; 0 = off",
-        default=0.0, min=0.0, soft_max=3600.0, unit="TIME_ABSOLUTE", subtype="TIME_ABSOLUTE")
+    # Properties of the add-on's own (no settings-table row). The table's
+    # rows are added in register(), from TABLE_PROPERTIES.
     write_convergence: BoolProperty(
         name="Write Convergence", description="After a final render, write <output path>_convergence.csv "
                                               "(seconds, samples and estimated error of every sample pass) next "
@@ -40,107 +123,10 @@ class CoherentRenderSettings(bpy.types.PropertyGroup):
         name="Error", description="Write an 'Error' pass: per pixel, the estimated RMS error of the rendered "
                                   "radiance (from the even and odd sample passes)",
         default=False)
-
-    seed: IntProperty(
-        name="Seed", description="Seed of the sample sequences; renders with equal seeds are identical",
-        default=0, min=0)
     use_animated_seed: BoolProperty(
         name="Animated Seed", description="Combine the seed with the frame number so noise changes per frame",
         default=False)
-
-    # Random sequences (Sadeghi et al. 2009, "Coherent Path Tracing").
-    sampler: EnumProperty(
-        name="Sampler", description="How the random numbers of paths are shared between pixels",
-        items=(
-            ("SPT", "SPT", "Standard path tracing: an independent random sequence per pixel and sample"),
-            ("CPT", "CPT", "Coherent path tracing: one sequence per sample shared by every pixel; coherent "
-                           "secondary rays, structured noise that vanishes at high sample counts"),
-            ("ICPT", "ICPT", "Interleaved coherent path tracing: packet blocks split into randomised "
-                             "Latin-hypercube subsets that share sequences; hides CPT's structured noise"),
-            ("AUTO", "Auto", "ICPT in the viewport and for final renders below 256 samples, CPT above"),
-        ),
-        default="AUTO")
-    packet_size: IntVectorProperty(
-        name="Packet Size", description="Ray packet size in pixels (width, height); ICPT uses square blocks "
-                                        "of the shorter side",
-        size=2, default=(4, 4), min=1, max=16)
-
-    # Adaptive sampling (final renders and the viewport).
-    use_adaptive_sampling: BoolProperty(
-        name="Adaptive Sampling", description="Stop sampling a pixel once its estimated relative error, and its "
-                                              "3x3 neighbours', is below the noise threshold",
-        default=False)
-    adaptive_threshold: FloatProperty(
-        name="Noise Threshold", description="Relative per-pixel error (estimated from the even and odd sample "
-                                            "passes) at which a pixel stops taking samples",
-        default=0.01, min=0.0001, max=1.0, soft_max=0.1, step=0.1, precision=4)
-    adaptive_min_samples: IntProperty(
-        name="Min Samples", description="Samples every pixel takes before adaptive sampling may stop it "
-                                        "(rounded up to an even number)",
-        default=16, min=2, max=1 << 24, soft_max=4096)
-
-    # Light transport and tracing (native/render/render_modes.h). Enum
-    # identifiers are the native names in upper case: renderer_kwargs lowers them.
-    integrator: EnumProperty(
-        name="Integrator", description="Which light transport is computed",
-        items=(
-            ("PT", "Path Tracing", "Full global illumination: path tracing with next-event estimation and "
-                                   "multiple importance sampling"),
-            ("DRT", "Distribution", "Distribution ray tracing: soft shadows from area lights, glossy "
-                                    "reflection and refraction, depth of field; no diffuse interreflection"),
-            ("WRT", "Whitted", "Whitted ray tracing: direct light, paths continue through mirrors and "
-                               "glass only"),
-            ("RCS", "Ray Casting", "Ray casting with shadows: direct light at the first hit only"),
-            ("AO", "Ambient Occlusion", "Fraction of cosine-distributed rays from the first hit that escape "
-                                        "within the AO distance (white = unoccluded)"),
-        ),
-        default="PT")
-    traversal: EnumProperty(
-        name="Traversal", description="How rays are traced through the BVH; every mode finds the same hits",
-        items=(
-            ("AUTO", "Auto", "Packets with the CPT sampler (where they pay, measured), single rays otherwise"),
-            ("SINGLE", "Single Rays", "One ray at a time over a BVH of the chosen width"),
-            ("PACKET", "Packets", "SIMD packets of the rays of Packet Size pixels, secondary rays assembled "
-                                  "by Assembly"),
-            ("STREAM", "Streams", "Breadth-first ray streams with per-node ray queues over the wide BVH"),
-            ("WAVEFRONT", "Wavefront", "Staged pipeline (generate, extend, reorder, shade, shadow) over waves "
-                                       "of paths, reordered by Reorder"),
-        ),
-        default="AUTO")
-    assembly: EnumProperty(
-        name="Assembly", description="Packet traversal: how secondary rays are grouped into packets",
-        items=(
-            ("TYPES", "Ray Types", "One packet per ray type (shadow, diffuse, glossy, reflection, refraction)"),
-            ("RUNS", "Runs", "Consecutive rays of the same type in pixel order form a packet"),
-        ),
-        default="TYPES")
-    bvh_width: EnumProperty(
-        name="BVH Width", description="Branching factor of the BVH for single-ray and stream traversal",
-        items=(("2", "2", "Binary BVH"), ("4", "4", "4-wide BVH"), ("8", "8", "8-wide BVH")),
-        default="8")
-    reorder: EnumProperty(
-        name="Reorder", description="Wavefront traversal: how rays are sorted for coherence before tracing",
-        items=(
-            ("NONE", "None", "Trace rays in the order paths produced them"),
-            ("STATIC1D", "Static 1D", "Pixel order along a Morton curve"),
-            ("STATIC3D", "Static 3D", "Morton order of the ray origins"),
-            ("HASH32", "Hash 32", "32-bit keys of origin and direction bits, radix sorted"),
-            ("HASH192", "Hash 192", "192-bit keys of origin and direction bits, radix sorted"),
-            ("CSD32", "CSD 32", "Compress-sort-decompress of 32-bit keys"),
-        ),
-        default="NONE")
-    wave_size: IntProperty(
-        name="Wave Size", description="Wavefront traversal: paths in flight per wave (bounds memory)",
-        default=1 << 16, min=1, max=1 << 24, soft_min=1024, soft_max=1 << 20)
-    ao_samples: IntProperty(
-        name="AO Samples", description="Ambient occlusion: occlusion rays per camera sample",
-        default=16, min=1, max=4096, soft_max=256)
-    ao_distance: FloatProperty(
-        name="AO Distance", description="Ambient occlusion: length of occlusion rays; 0 = a tenth of the "
-                                        "scene's bounding-box diagonal",
-        default=0.0, min=0.0, soft_max=100.0, subtype="DISTANCE", unit="LENGTH")
-
-    # Diagnostic heatmap passes (view layer panel).
+    # Diagnostic heatmap passes (view layer panel); either fills both.
     use_pass_bvh_visits: BoolProperty(
         name="BVH Visits", description="Write a 'BVH Visits' pass: BVH node visits per camera sample, all "
                                        "rays of the sample's path (where traversal is expensive)",
@@ -150,27 +136,6 @@ class CoherentRenderSettings(bpy.types.PropertyGroup):
                                              "SIMD lanes holding an active ray in the packets that traced the "
                                              "pixel (where coherence is lost); 1 for single rays",
         default=False)
-
-    max_bounces: IntProperty(
-        name="Total", description="Maximum number of bounces of any kind",
-        default=12, min=0, max=1024)
-    diffuse_bounces: IntProperty(
-        name="Diffuse", description="Maximum number of diffuse reflection bounces",
-        default=4, min=0, max=1024)
-    glossy_bounces: IntProperty(
-        name="Glossy", description="Maximum number of glossy reflection bounces",
-        default=4, min=0, max=1024)
-    transmission_bounces: IntProperty(
-        name="Transmission", description="Maximum number of transmission (refraction) bounces",
-        default=12, min=0, max=1024)
-
-    threads: IntProperty(
-        name="Threads", description="Render threads; 0 uses Blender's Performance > Threads setting "
-                                    "(all cores when set to Auto-Detect)",
-        default=0, min=0, max=1024)
-    tile_size: IntProperty(
-        name="Tile Size", description="Edge length in pixels of the image tiles threads work on",
-        default=32, min=4, max=1024)
 
     def renderer_kwargs(self, scene):
         """Keyword arguments of _coherent.Renderer that the final render and
@@ -182,19 +147,15 @@ class CoherentRenderSettings(bpy.types.PropertyGroup):
         the viewport, which makes AUTO pick ICPT); the viewport turns
         heatmaps off (it shows Combined only).
         """
-        threads = self.threads
-        if threads == 0 and scene.render.threads_mode == "FIXED":
-            threads = scene.render.threads
-        return dict(threads=threads, max_bounces=self.max_bounces, diffuse_bounces=self.diffuse_bounces,
-                    glossy_bounces=self.glossy_bounces, transmission_bounces=self.transmission_bounces,
-                    transparent=scene.render.film_transparent, tile_size=self.tile_size,
-                    sampler=self.sampler.lower(), packet=(int(self.packet_size[0]), int(self.packet_size[1])),
-                    adaptive=self.use_adaptive_sampling, adaptive_threshold=self.adaptive_threshold,
-                    adaptive_min_samples=self.adaptive_min_samples,
-                    integrator=self.integrator.lower(), traversal=self.traversal.lower(),
-                    assembly=self.assembly.lower(), bvh_width=int(self.bvh_width), reorder=self.reorder.lower(),
-                    wave_size=self.wave_size, ao_samples=self.ao_samples, ao_distance=self.ao_distance,
-                    heatmaps=self.use_pass_bvh_visits or self.use_pass_simd_utilisation)
+        kwargs = {}
+        for prop, (name, _) in TABLE_PROPERTIES.items():
+            if name not in FRONT_END_ROWS:
+                kwargs[name] = native_value(_table[name], getattr(self, prop))
+        if kwargs["threads"] == 0 and scene.render.threads_mode == "FIXED":
+            kwargs["threads"] = scene.render.threads
+        kwargs["transparent"] = scene.render.film_transparent
+        kwargs["heatmaps"] = self.use_pass_bvh_visits or self.use_pass_simd_utilisation
+        return kwargs
 
     def seed_for_frame(self, frame):
         """The sampler seed for `frame`: constant unless use_animated_seed."""
@@ -254,7 +215,25 @@ class CoherentQualitySettings(bpy.types.PropertyGroup):
 classes = (CoherentRenderSettings, CoherentQualityRow, CoherentQualityFitInfo, CoherentQualitySettings)
 
 
+def table_loaded():
+    """Whether the settings table was read (the native module loaded at registration)."""
+    return bool(_table)
+
+
 def register():
+    # The table comes from the native module; without it the engine still
+    # registers (rendering then reports the module's load error) and the
+    # panels show that error instead of settings.
+    from . import native_module
+    try:
+        rows = native_module().settings_table()
+    except ImportError:
+        rows = []
+    _table.clear()
+    _table.update((row["name"], row) for row in rows)
+    if _table:
+        for prop, (name, overrides) in TABLE_PROPERTIES.items():
+            CoherentRenderSettings.__annotations__[prop] = table_property(_table[name], **overrides)
     for cls in classes:
         bpy.utils.register_class(cls)
     bpy.types.Scene.coherent = PointerProperty(

@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import bpy
 
-from . import operators
+from . import operators, properties
 from .quality_model import SAMPLERS, format_duration
 
 ENGINE = "COHERENT"
@@ -26,7 +26,9 @@ class CoherentButtonsPanel:
 
     @classmethod
     def poll(cls, context):
-        return context.engine in cls.COMPAT_ENGINES
+        # Without the native module there is no settings table, so no
+        # settings to draw: the Sampling panel shows the load error instead.
+        return context.engine in cls.COMPAT_ENGINES and properties.table_loaded()
 
 
 # --- Render properties ----------------------------------------------------------
@@ -36,8 +38,15 @@ class RENDER_PT_coherent_sampling(CoherentButtonsPanel, bpy.types.Panel):
     bl_label = "Sampling"
     bl_context = "render"
 
+    @classmethod
+    def poll(cls, context):
+        return context.engine in cls.COMPAT_ENGINES
+
     def draw(self, context):
         layout = self.layout
+        if not properties.table_loaded():
+            layout.label(text="The Coherent native module did not load; see the console", icon="ERROR")
+            return
         layout.use_property_split = True
         layout.use_property_decorate = False
         props = context.scene.coherent
@@ -177,6 +186,9 @@ class RENDER_PT_coherent_light_paths(CoherentButtonsPanel, bpy.types.Panel):
         col.prop(props, "diffuse_bounces", text="Diffuse")
         col.prop(props, "glossy_bounces", text="Glossy")
         col.prop(props, "transmission_bounces", text="Transmission")
+        col = layout.column(heading="Clamping", align=True)
+        col.prop(props, "clamp_direct", text="Direct Light")
+        col.prop(props, "clamp_indirect", text="Indirect Light")
 
 
 class RENDER_PT_coherent_film(CoherentButtonsPanel, bpy.types.Panel):

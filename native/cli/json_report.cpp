@@ -4,11 +4,11 @@
 
 #include <nlohmann/json.hpp>
 
+#include "render/setting_table.h"
+
 namespace coherent::cli {
 namespace {
 
-// A ratio, or null when the denominator is 0 (nothing was measured, which
-// is not the same as a measured 0).
 // A ratio, or null where nothing was measured (stats.h).
 nlohmann::ordered_json ratio(std::optional<double> r) {
     if (!r) return nullptr;
@@ -31,30 +31,35 @@ nlohmann::ordered_json bounce_json(int index, const BounceStats& b) {
     return j;
 }
 
+// Every settings-table row as rendered: Auto sampler and traversal resolved.
+nlohmann::ordered_json settings_json(const RenderSettings& rendered) {
+    RenderSettings s = rendered;
+    s.sampler = s.resolved_sampler();
+    nlohmann::ordered_json j = nlohmann::ordered_json::object();
+    for (const SettingSpec& spec : setting_table())
+        std::visit([&](const auto& v) { j[spec.name] = v; }, spec.get(s));
+    return j;
+}
+
 }  // namespace
 
 std::string render_report_json(const RenderReport& r) {
     nlohmann::ordered_json j;
     j["seconds"] = r.seconds;
+    // The settings as rendered, one key per settings-table row.
+    j["settings"] = settings_json(r.settings);
     j["spp"] = r.stats.spp;  // samples per pixel actually taken (stopping rules may end early)
-    j["spp_max"] = r.settings.spp;
     // Estimated relative RMSE of the image; null with fewer than 2 passes.
     if (r.stats.error_estimate >= 0.0)
         j["error_estimate"] = r.stats.error_estimate;
     else
         j["error_estimate"] = nullptr;
-    j["target_error"] = r.settings.target_error;
-    j["time_limit"] = r.settings.time_limit;
-    // Adaptive sampling: null when off, else its settings and outcome.
+    // Adaptive sampling's outcome: null when off.
     if (r.settings.adaptive)
-        j["adaptive"] = {{"threshold", r.settings.adaptive_threshold},
-                         {"min_samples", r.settings.adaptive_min_samples},
-                         {"converged_pixels", r.stats.converged_pixels},
+        j["adaptive"] = {{"converged_pixels", r.stats.converged_pixels},
                          {"converged_fraction", r.stats.converged_fraction()}};
     else
         j["adaptive"] = nullptr;
-    j["width"] = r.settings.width;
-    j["height"] = r.settings.height;
 
     nlohmann::ordered_json rays = nlohmann::ordered_json::object();
     for (size_t t = 0; t < size_t(RayType::Count); ++t) rays[ray_type_name(RayType(t))] = r.stats.rays[t];
@@ -76,23 +81,8 @@ std::string render_report_json(const RenderReport& r) {
     j["load_seconds"] = r.load_seconds;
     j["build_seconds"] = r.build_seconds;
     j["triangles"] = r.triangles;
-    j["seed"] = r.settings.seed;
-    j["threads"] = r.settings.threads;
-    j["max_bounces"] = r.settings.max_bounces;
-    j["sampler"] = std::string(sampler_type_name(r.settings.resolved_sampler()));  // Auto resolved
-    j["packet"] = {r.settings.packet_width, r.settings.packet_height};
-    j["sequences"] = std::string(sequence_scope_name(r.settings.sequence_scope));
 
-    // Tracing configuration (render_modes.h) and what it cost.
-    const RenderSettings& s = r.settings;
-    j["integrator"] = std::string(integrator_name(s.integrator));
-    j["traversal"] = std::string(traversal_name(s.traversal));
-    j["assembly"] = std::string(assembly_name(s.assembly));
-    j["bvh_width"] = s.bvh_width;
-    j["reorder"] = std::string(reorder_name(s.reorder));
-    j["wave_size"] = s.wave_size;
-    j["ao_samples"] = s.ao_samples;
-    j["ao_distance"] = s.ao_distance;
+    // What the tracing cost.
     j["rays_per_second"] = r.seconds > 0.0 ? double(r.stats.total_rays()) / r.seconds : 0.0;
     j["trace_seconds"] = r.stats.trace_seconds;
     j["sort_seconds"] = r.stats.sort_seconds;

@@ -1,8 +1,11 @@
-// Command-line options of `coherent render`, described by one table so that
-// adding an option is adding one row (name, value placeholder, help, parser).
+// Command-line options of `coherent render`. The render settings' options,
+// their ranges, choices, defaults and help come from the one settings table
+// (render/setting_table.h); this file adds only what is the CLI's own
+// (scene and output files, --res, --json, --convergence, --help).
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -27,16 +30,20 @@ struct RenderOptions {
     bool help = false;
 };
 
-// One row of the option table. `parse` gets the option's value (nullptr for
-// flags) and returns false with `error` set when the value is invalid.
+// One command-line option. `apply` gets the option's value (empty for
+// flags; two values joined by a space for a two-value metavar such as
+// "W H") and throws std::invalid_argument with a message that does not
+// repeat the option's name.
 struct OptionSpec {
-    const char* name;     // "--spp"
-    const char* alias;    // "-o" or nullptr
-    const char* metavar;  // "N", nullptr for flags
-    std::string help;     // defaults are filled in from RenderSettings{}
-    bool (*parse)(RenderOptions& options, const char* value, std::string& error);
+    std::string name;     // "--spp"
+    std::string alias;    // "-o" or ""
+    std::string metavar;  // "N"; "" for flags
+    std::string help;     // with the default filled in from RenderSettings{}
+    std::string group;    // heading in --help
+    std::function<void(RenderOptions& options, const std::string& value)> apply;
 };
 
+// The CLI's own options followed by one option per settings-table row.
 const std::vector<OptionSpec>& render_option_table();
 
 // Parses the arguments after `render`. Returns false with a one-line

@@ -13,6 +13,7 @@
 #include <thread>
 #include <vector>
 
+#include "bind_settings.h"
 #include "bindings.h"
 #include "render/renderer.h"
 
@@ -58,22 +59,14 @@ py::dict bounce_dict(int index, const BounceStats& b) {
     return d;
 }
 
-// The tracing configuration by the names render_modes.h uses (and the
-// Renderer's keyword arguments take).
-py::dict settings_dict(const RenderSettings& s) {
-    py::dict d;
-    d["integrator"] = std::string(integrator_name(s.integrator));
-    d["traversal"] = std::string(traversal_name(s.traversal));
-    d["assembly"] = std::string(assembly_name(s.assembly));
-    d["bvh_width"] = s.bvh_width;
-    d["reorder"] = std::string(reorder_name(s.reorder));
-    d["wave_size"] = s.wave_size;
-    d["ao_samples"] = s.ao_samples;
-    d["ao_distance"] = s.ao_distance;
-    d["heatmaps"] = s.heatmaps;
-    d["counts_path_visits"] = traversal_counts_path_visits(s.traversal);  // the BVH Visits heatmap is not 0
-    d["packet"] = py::make_tuple(s.packet_width, s.packet_height);
-    d["sampler"] = std::string(sampler_type_name(s.resolved_sampler()));
+// The settings as the Renderer resolved them (sampler and traversal never
+// Auto), by the table's names, plus whether the BVH Visits heatmap counts
+// per path.
+py::dict settings_dict(const RenderSettings& rendered) {
+    RenderSettings s = rendered;
+    s.sampler = s.resolved_sampler();
+    py::dict d = settings_to_python(s);
+    d["counts_path_visits"] = traversal_counts_path_visits(s.traversal);
     return d;
 }
 
@@ -353,153 +346,39 @@ private:
     int snapshot_samples_ = 0;
 };
 
-int checked_int(int v, int lo, int hi, const char* arg) {
-    if (v < lo || v > hi)
-        throw py::value_error(std::string(arg) + ": must be in [" + std::to_string(lo) + ", " + std::to_string(hi) +
-                              "], got " + std::to_string(v));
-    return v;
-}
-
-std::unique_ptr<PyRenderer> make_renderer(std::shared_ptr<PyScene> scene, int width, int height, int spp,
-                                          unsigned long long seed, int threads, int max_bounces,
-                                          int diffuse_bounces, int glossy_bounces, int transmission_bounces,
-                                          int rr_min_bounces, bool transparent, const py::object& border,
-                                          int tile_size, bool force_all_features, const std::string& sampler,
-                                          const py::object& packet, bool progressive_display,
-                                          const std::string& sequences, double target_error, double time_limit,
-                                          bool adaptive, double adaptive_threshold, int adaptive_min_samples,
-                                          const std::string& integrator, const std::string& traversal,
-                                          const std::string& assembly, int bvh_width, const std::string& reorder,
-                                          int wave_size, int ao_samples, double ao_distance, bool heatmaps) {
+std::unique_ptr<PyRenderer> make_renderer(std::shared_ptr<PyScene> scene, const py::object& settings,
+                                          const py::kwargs& kwargs) {
     if (!scene) throw py::type_error("scene: expected a coherent Scene, got None");
-    constexpr int kMaxSize = 1 << 16;
-    RenderSettings s;
-    s.width = checked_int(width, 1, kMaxSize, "width");
-    s.height = checked_int(height, 1, kMaxSize, "height");
-    s.spp = checked_int(spp, 1, 1 << 24, "spp");
-    s.seed = seed;
-    if (!(target_error >= 0.0 && std::isfinite(target_error)))
-        throw py::value_error("target_error: expected a finite number >= 0 (0 = off)");
-    if (!(time_limit >= 0.0 && std::isfinite(time_limit)))
-        throw py::value_error("time_limit: expected a finite number of seconds >= 0 (0 = off)");
-    s.target_error = target_error;
-    s.time_limit = time_limit;
-    if (!(adaptive_threshold > 0.0 && adaptive_threshold <= 1.0))
-        throw py::value_error("adaptive_threshold: expected a relative error in (0, 1]");
-    s.adaptive = adaptive;
-    s.adaptive_threshold = adaptive_threshold;
-    s.adaptive_min_samples = checked_int(adaptive_min_samples, 2, 1 << 24, "adaptive_min_samples");
-    s.threads = checked_int(threads, 0, 4096, "threads");
-    s.max_bounces = checked_int(max_bounces, 0, 1024, "max_bounces");
-    s.diffuse_bounces = checked_int(diffuse_bounces, 0, 1024, "diffuse_bounces");
-    s.glossy_bounces = checked_int(glossy_bounces, 0, 1024, "glossy_bounces");
-    s.transmission_bounces = checked_int(transmission_bounces, 0, 1024, "transmission_bounces");
-    s.rr_min_bounces = checked_int(rr_min_bounces, 0, 1024, "rr_min_bounces");
-    s.transparent_film = transparent;
-    s.tile_size = checked_int(tile_size, 1, 4096, "tile_size");
-    s.force_all_features = force_all_features;
-    // Sampler (native/sample): "spt" | "cpt" | "icpt" | "auto"; auto resolves
-    // with progressive_display (True for the viewport) and spp.
-    if (const auto t = parse_sampler_type(sampler)) s.sampler = *t;
-    else throw py::value_error("sampler: expected 'spt', 'cpt', 'icpt' or 'auto', got '" + sampler + "'");
-    const auto pk = packet.cast<std::vector<int>>();
-    if (pk.size() != 2) throw py::value_error("packet: expected (width, height) in pixels");
-    s.packet_width = checked_int(pk[0], 1, 16, "packet width");
-    s.packet_height = checked_int(pk[1], 1, 16, "packet height");
-    s.progressive_display = progressive_display;
-    if (const auto sc = parse_sequence_scope(sequences)) s.sequence_scope = *sc;
-    else throw py::value_error("sequences: expected 'packet' or 'image', got '" + sequences + "'");
-    // Light transport and tracing (render_modes.h names).
-    if (const auto v = parse_integrator(integrator)) s.integrator = *v;
-    else throw py::value_error("integrator: expected 'pt', 'drt', 'wrt', 'rcs' or 'ao', got '" + integrator + "'");
-    if (const auto v = parse_traversal(traversal)) s.traversal = *v;
-    else throw py::value_error("traversal: expected 'single', 'wide', 'packet', 'stream' or 'wavefront', got '" +
-                               traversal + "'");
-    if (const auto v = parse_assembly(assembly)) s.assembly = *v;
-    else throw py::value_error("assembly: expected 'types' or 'runs', got '" + assembly + "'");
-    if (bvh_width != 2 && bvh_width != 4 && bvh_width != 8)
-        throw py::value_error("bvh_width: expected 2, 4 or 8, got " + std::to_string(bvh_width));
-    s.bvh_width = bvh_width;
-    if (const auto v = parse_reorder(reorder)) s.reorder = *v;
-    else throw py::value_error("reorder: expected 'none', 'static1d', 'static3d', 'hash32', 'hash192' or 'csd32', got '" +
-                               reorder + "'");
-    s.wave_size = checked_int(wave_size, 1, 1 << 24, "wave_size");
-    s.ao_samples = checked_int(ao_samples, 1, 1 << 12, "ao_samples");
-    if (!(ao_distance >= 0.0 && std::isfinite(float(ao_distance))))  // finite also as a float
-        throw py::value_error("ao_distance: expected a finite length >= 0 (0 = a tenth of the scene's diagonal)");
-    s.ao_distance = float(ao_distance);
-    s.heatmaps = heatmaps;
-    if (!border.is_none()) {
-        const auto b = border.cast<std::vector<int>>();
-        if (b.size() != 4) throw py::value_error("border: expected (x0, y0, x1, y1) in pixels");
-        if (b[0] < 0 || b[1] < 0 || b[2] > s.width || b[3] > s.height || b[0] >= b[2] || b[1] >= b[3])
-            throw py::value_error("border: expected 0 <= x0 < x1 <= width and 0 <= y0 < y1 <= height (y = 0 at the top), got (" +
-                                  std::to_string(b[0]) + ", " + std::to_string(b[1]) + ", " + std::to_string(b[2]) +
-                                  ", " + std::to_string(b[3]) + ")");
-        s.border_x0 = b[0];
-        s.border_y0 = b[1];
-        s.border_x1 = b[2];
-        s.border_y1 = b[3];
-    }
-    return std::make_unique<PyRenderer>(std::move(scene), s);
+    return std::make_unique<PyRenderer>(std::move(scene), settings_from_python(settings, kwargs));
 }
 
 }  // namespace
 
 void bind_render(py::module_& m) {
-    py::class_<PyRenderer>(m, "Renderer", R"doc(
-Renders a Scene. Construction builds the BVH (the GIL is released). The scene
-is kept alive and read-only while the Renderer exists.
+    static const std::string doc = std::string(R"doc(
+Renderer(scene, settings=None, **kwargs): renders a Scene. The settings are
+the rows of settings_table(), given as a dict, as keyword arguments (which
+win over the dict), or both; any left out keep their defaults. A wrong name
+or type raises TypeError, a value out of range ValueError, each naming the
+setting. Construction builds the BVH (the GIL is released). The scene is
+kept alive and read-only while the Renderer exists.
 
 border=(x0, y0, x1, y1) in pixels, y = 0 at the TOP row, x1/y1 exclusive: the
 film (and every pass) then covers only that region.
 
-sampler="spt" | "cpt" | "icpt" | "auto" picks the random sequences (Sadeghi et
-al. 2009); "auto" gives ICPT when progressive_display=True (the viewport) or
-below 256 spp, else CPT. packet=(w, h): packet size in pixels (ICPT blocks
-are square, of the shorter side), at most 16. sequences="packet" | "image":
-CPT/ICPT share sequences per packet (the paper's Fig. 3) or over the whole
-image (its equation 3).
+Stopping rules: whichever of spp, target_error and time_limit comes first
+ends the render. stats()["spp"] says how many passes were taken; stats()
+and the progress dict carry error_estimate (None before 2 passes). The
+`settings` property returns every setting as resolved (sampler and
+traversal never 'auto'). stats() adds per-bounce work ("bounces": rays,
+node visits, box and triangle tests per ray, SIMD utilisation of box and
+triangle tests; None where no packet traced), "simd_utilisation",
+"rays_per_second", "trace_seconds" and "sort_seconds".
 
-Stopping rules (0 = off; whichever of spp, target_error and time_limit comes
-first ends the render): target_error is a relative RMSE, estimated without a
-reference from the even and odd sample passes and checked after every even
-pass count; time_limit is in seconds, checked between passes. stats()["spp"]
-says how many passes were taken; stats() and the progress dict carry
-error_estimate (None before 2 passes).
-
-adaptive=True: after adaptive_min_samples passes (rounded up to even), at
-every even pass count, a pixel whose estimated relative error and whose 3x3
-neighbours' are at most adaptive_threshold stops taking samples; stats()
-carries converged_pixels and converged_fraction.
-
-Light transport and tracing (the same names as `coherent render`):
-integrator="pt" | "drt" | "wrt" | "rcs" | "ao" (path tracing, distribution
-ray tracing, Whitted, ray casting with shadows, ambient occlusion);
-traversal="single" | "wide" (= single) | "packet" | "stream" | "wavefront";
-assembly="types" | "runs" (packet traversal: secondary rays grouped by ray
-type or by runs of equal type); bvh_width=2 | 4 | 8; reorder="none" |
-"static1d" | "static3d" | "hash32" | "hash192" | "csd32" and wave_size
-(wavefront); ao_samples and ao_distance (ao; 0 = a tenth of the scene's
-diagonal). heatmaps=True fills the 'BVH Visits' and 'SIMD Utilisation'
-passes. The `settings` property returns the configuration as resolved.
-stats() adds per-bounce work ("bounces": rays, node visits, box and triangle
-tests per ray, SIMD utilisation of box and triangle tests; None where no
-packet traced), "simd_utilisation", "rays_per_second", "trace_seconds" and
-"sort_seconds".
-)doc")
-        .def(py::init(&make_renderer), py::arg("scene"), py::kw_only(), py::arg("width") = 512,
-             py::arg("height") = 512, py::arg("spp") = 16, py::arg("seed") = 0, py::arg("threads") = 0,
-             py::arg("max_bounces") = 12, py::arg("diffuse_bounces") = 4, py::arg("glossy_bounces") = 4,
-             py::arg("transmission_bounces") = 12, py::arg("rr_min_bounces") = 3, py::arg("transparent") = false,
-             py::arg("border") = py::none(), py::arg("tile_size") = 32, py::arg("force_all_features") = false,
-             py::arg("sampler") = "spt", py::arg("packet") = py::make_tuple(4, 4),
-             py::arg("progressive_display") = false, py::arg("sequences") = "packet", py::arg("target_error") = 0.0,
-             py::arg("time_limit") = 0.0, py::arg("adaptive") = false, py::arg("adaptive_threshold") = 0.01,
-             py::arg("adaptive_min_samples") = 16, py::arg("integrator") = "pt", py::arg("traversal") = "auto",
-             py::arg("assembly") = "types", py::arg("bvh_width") = 8, py::arg("reorder") = "none",
-             py::arg("wave_size") = RenderSettings{}.wave_size, py::arg("ao_samples") = RenderSettings{}.ao_samples,
-             py::arg("ao_distance") = 0.0, py::arg("heatmaps") = false)
+Settings:
+)doc") + settings_docstring();
+    py::class_<PyRenderer>(m, "Renderer", doc.c_str())
+        .def(py::init(&make_renderer), py::arg("scene"), py::arg("settings") = py::none())
         .def("render", &PyRenderer::render, py::arg("progress") = py::none(), R"doc(
 Renders all samples; returns False if cancelled. `progress(dict)` is called
 after every sample pass (and periodically within long passes) with keys
@@ -540,8 +419,8 @@ rows bottom-up as Blender expects.)doc")
         .def_property_readonly("film_height", [](const PyRenderer& r) { return r.film().height(); })
         .def_property_readonly("spp", [](const PyRenderer& r) { return r.settings().spp; })
         .def_property_readonly("settings", [](const PyRenderer& r) { return settings_dict(r.settings()); },
-                               "The tracing configuration as a dict: integrator, traversal, assembly, bvh_width, "
-                               "reorder, wave_size, ao_samples, ao_distance, heatmaps, packet, sampler (resolved).");
+                               "Every setting as resolved (settings_table() names; sampler and traversal never "
+                               "'auto'), plus counts_path_visits.");
 }
 
 }  // namespace coherent::python

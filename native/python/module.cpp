@@ -3,6 +3,7 @@
 #include <cmath>
 #include <thread>
 
+#include "bind_settings.h"
 #include "bindings.h"
 #include "render/convergence.h"
 #include "render/stats.h"
@@ -39,6 +40,7 @@ PYBIND11_MODULE(_coherent, m) {
     m.attr("__version__") = "0.1.0";
 #endif
     bind_scene(m);
+    bind_settings(m);
     bind_render(m);
 
     std::vector<std::string> ray_types;

@@ -69,8 +69,9 @@ constexpr bool traversal_counts_path_visits(Traversal t) { return t != Traversal
 enum class PacketAssembly : uint8_t { RayType, Runs };
 
 // Ray reordering in the wavefront path (Moon et al. / the reordering paper 004):
-//   None; Static1D (pixel order along a Morton curve), Static3D (origin
-//   Morton order); Hash32 and Hash192 (the paper's HASHKEY32/HASHKEY192 of
+//   None; Static1D (pixel order along a Morton curve), Static3D (the
+//   paper's static 3D work groups of 8 x 16 x 1 over width, height and ray
+//   of the pixel; see ray_reorder.h); Hash32 and Hash192 (the paper's HASHKEY32/HASHKEY192 of
 //   origin and direction bits, sorted by LSD radix sort); Csd32
 //   (compress-sort-decompress of 32-bit keys).
 enum class ReorderMode : uint8_t { None, Static1D, Static3D, Hash32, Hash192, Csd32 };

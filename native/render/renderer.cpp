@@ -7,6 +7,8 @@
 // merged after each pass: no atomics in the per-ray path.
 #include "renderer.h"
 
+#include "setting_table.h"
+
 #include <tbb/blocked_range.h>
 #include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
@@ -212,24 +214,12 @@ Renderer::Renderer(const Scene& scene, const RenderSettings& settings) : Rendere
 
 Renderer::Renderer(const Scene& scene, const RenderSettings& settings, std::shared_ptr<const Bvh> bvh)
     : scene_(scene), settings_(settings) {
+    validate(settings_);  // setting_table.h: the one check every front end relies on
     features_ = settings_.force_all_features ? SceneFeatures::all() : scene_.features;
     auto_traversal_ = settings_.traversal == Traversal::Auto;
     settings_.traversal = settings_.resolved_traversal();  // never Auto from here on
-    // Clamp the border to the frame; an empty border renders nothing.
-    settings_.width = std::max(settings_.width, 1);
-    settings_.height = std::max(settings_.height, 1);
-    if (settings_.border_x1 < 0 || settings_.border_x1 > settings_.width) settings_.border_x1 = settings_.width;
-    if (settings_.border_y1 < 0 || settings_.border_y1 > settings_.height) settings_.border_y1 = settings_.height;
-    settings_.border_x0 = std::clamp(settings_.border_x0, 0, settings_.border_x1);
-    settings_.border_y0 = std::clamp(settings_.border_y0, 0, settings_.border_y1);
-    settings_.tile_size = std::max(settings_.tile_size, 1);
-    // A packet holds at most kMaxPacketRays rays: 16 x 16 pixels.
-    settings_.packet_width = std::clamp(settings_.packet_width, 1, 16);
-    settings_.packet_height = std::clamp(settings_.packet_height, 1, 16);
-    settings_.ao_samples = std::clamp(settings_.ao_samples, 1, 1024);
-    settings_.wave_size = std::clamp(settings_.wave_size, 1, 1 << 24);
-    if (settings_.bvh_width != 2 && settings_.bvh_width != 4 && settings_.bvh_width != 8)
-        throw std::invalid_argument("bvh_width must be 2, 4 or 8 (got " + std::to_string(settings_.bvh_width) + ")");
+    if (settings_.border_x1 < 0) settings_.border_x1 = settings_.width;
+    if (settings_.border_y1 < 0) settings_.border_y1 = settings_.height;
     if (!bvh) {  // the usual case: build over the scene's triangles
         BvhBuildOptions options;
         options.width = settings_.bvh_width;

@@ -124,7 +124,7 @@ BAD_ARGS = [
     ["render", "{scene}", "-o", "{out}", "--res", "-5", "5"],
     ["render", "{scene}", "-o", "{out}", "--res", "0", "64"],
     ["render", "{scene}", "-o", "{out}", "--res", "64"],
-    ["render", "{scene}", "-o", "{out}", "--res", "16384", "16384"],
+    ["render", "{scene}", "-o", "{out}", "--res", "32768", "16384"],
     ["render", "{scene}", "-o", "{out}", "--res", "100000", "1"],
     ["render", "{scene}", "-o", "{out}", "--res", "64", "x"],
     ["render", "{scene}", "-o", "{out}", "--threads", "-1"],
@@ -216,11 +216,11 @@ def test_render_json_statistics(cornell_renders, ext):
     assert r.stderr == ""  # no progress bar off a terminal, nothing dropped
     stats = json.loads(r.stdout)  # exactly one JSON document on stdout
     assert isinstance(stats, dict)
-    for key in ["seconds", "spp", "width", "height", "rays", "mrays_per_s", "dropped",
+    for key in ["seconds", "spp", "settings", "rays", "mrays_per_s", "dropped",
                 "nonfinite_samples", "features", "output"]:
         assert key in stats, key
     assert stats["spp"] == 4
-    assert (stats["width"], stats["height"]) == (64, 64)
+    assert (stats["settings"]["width"], stats["settings"]["height"]) == (64, 64)
     assert stats["output"] == str(out)
     rays = stats["rays"]
     assert rays["camera"] == 64 * 64 * 4
@@ -308,7 +308,7 @@ def test_seed_and_threads_reach_the_renderer(cli, tmp_path):
         r = run(cli, "render", CORNELL, "-o", out, "--res", 24, 24, "--spp", 2, "--seed", seed,
                 "--threads", threads, "--json")
         assert r.returncode == 0, r.stderr
-        assert json.loads(r.stdout)["seed"] == seed
+        assert json.loads(r.stdout)["settings"]["seed"] == seed
         images[name] = oiio_pixels(out)
     assert images["a"] == images["b"]
     assert images["a"] != images["c"]
@@ -321,7 +321,7 @@ def test_max_bounces_reaches_the_renderer(cli, tmp_path):
                 "--max-bounces", bounces, "--json")
         assert r.returncode == 0, r.stderr
         stats = json.loads(r.stdout)
-        assert stats["max_bounces"] == bounces
+        assert stats["settings"]["max_bounces"] == bounces
         totals[bounces] = stats["rays"]["total"]
     # Longer paths in a closed box: more rays (same seed, same camera rays).
     assert totals[0] < totals[8]
@@ -364,8 +364,8 @@ def test_target_error_stops_early_and_json_reports_spp_taken(cli, tmp_path):
             "--json")
     assert r.returncode == 0, r.stderr
     stats = json.loads(r.stdout)
-    assert stats["spp_max"] == 100000
-    assert stats["target_error"] == pytest.approx(0.15)
+    assert stats["settings"]["spp"] == 100000
+    assert stats["settings"]["target_error"] == pytest.approx(0.15)
     # Stopped at an even pass count, well before the maximum, at or below the target.
     assert 2 <= stats["spp"] < 100000
     assert stats["spp"] % 2 == 0
@@ -378,7 +378,7 @@ def test_target_error_stops_early_and_json_reports_spp_taken(cli, tmp_path):
     r = run(cli, "render", CORNELL, "-o", tmp_path / "full.exr", "--res", 8, 8, "--spp", 6, "--json")
     assert r.returncode == 0, r.stderr
     stats = json.loads(r.stdout)
-    assert stats["spp"] == 6 and stats["spp_max"] == 6
+    assert stats["spp"] == 6 and stats["settings"]["spp"] == 6
     assert stats["error_estimate"] > 0.0
     # One pass has no odd half: no estimate yet.
     r = run(cli, "render", CORNELL, "-o", tmp_path / "one.exr", "--res", 8, 8, "--spp", 1, "--json")
@@ -391,7 +391,7 @@ def test_time_limit_stops_early(cli, tmp_path):
     assert r.returncode == 0, r.stderr
     stats = json.loads(r.stdout)
     assert 1 <= stats["spp"] < 1000000
-    assert stats["time_limit"] == pytest.approx(0.5)
+    assert stats["settings"]["time_limit"] == pytest.approx(0.5)
 
 
 @pytest.mark.parametrize("option,value", [("--target-error", "-0.1"), ("--target-error", "abc"),

@@ -10,6 +10,7 @@ the writer.
 """
 import json
 import math
+import re
 import subprocess
 
 import pytest
@@ -41,6 +42,18 @@ def exr_values(path, channel):
 
 
 # --- parsing -------------------------------------------------------------------------------------
+
+def test_every_setting_is_an_option_and_a_report_key(cli, tmp_path):
+    """One settings table: each option --help lists beyond the CLI's own is a
+    key of the report's settings block with the same name, and vice versa."""
+    help_text = run(cli, "render", "--help").stdout
+    options = set(re.findall(r"^  (--[a-z0-9-]+)", help_text, re.M))
+    cli_only = {"--output", "--res", "--convergence", "--json", "--help"}
+    assert cli_only <= options
+    _, stats, _ = render_json(cli, tmp_path, res=8, spp=1)
+    keys = {("--all-features" if k == "force_all_features" else "--" + k.replace("_", "-")) for k in stats["settings"]}
+    assert keys == options - cli_only
+
 
 def test_render_help_lists_tracing_options(cli):
     r = run(cli, "render", "--help")
@@ -84,21 +97,21 @@ def test_missing_or_unexpected_values_exit_2(cli, tmp_path, args):
 
 def test_auto_traversal_is_packets_with_cpt(cli, tmp_path):
     _, stats, _ = render_json(cli, tmp_path, "--sampler", "cpt")
-    assert stats["traversal"] == "packet"
+    assert stats["settings"]["traversal"] == "packet"
     _, stats, _ = render_json(cli, tmp_path, "--sampler", "spt", "--traversal", "auto")
-    assert stats["traversal"] == "single"
+    assert stats["settings"]["traversal"] == "single"
 
 
 def test_defaults_in_json(cli, tmp_path):
     _, stats, _ = render_json(cli, tmp_path)
-    assert stats["integrator"] == "pt"
-    assert stats["traversal"] == "single"
-    assert stats["assembly"] == "types"
-    assert stats["bvh_width"] == 8
-    assert stats["reorder"] == "none"
-    assert stats["wave_size"] == 65536
-    assert stats["ao_samples"] == 16
-    assert stats["ao_distance"] == 0.0
+    assert stats["settings"]["integrator"] == "pt"
+    assert stats["settings"]["traversal"] == "single"
+    assert stats["settings"]["assembly"] == "types"
+    assert stats["settings"]["bvh_width"] == 8
+    assert stats["settings"]["reorder"] == "none"
+    assert stats["settings"]["wave_size"] == 65536
+    assert stats["settings"]["ao_samples"] == 16
+    assert stats["settings"]["ao_distance"] == 0.0
     assert stats["heatmaps"] is None
 
 
@@ -122,7 +135,7 @@ ACCEPTED = [
 @pytest.mark.parametrize("args,key,expected", ACCEPTED, ids=[" ".join(a) for a, _, _ in ACCEPTED])
 def test_accepted_values_reach_the_report(cli, tmp_path, args, key, expected):
     out, stats, r = render_json(cli, tmp_path, *args, res=8, spp=1)
-    assert stats[key] == expected
+    assert stats["settings"][key] == expected
     assert out.exists()
     assert r.stderr == ""
 
@@ -130,7 +143,7 @@ def test_accepted_values_reach_the_report(cli, tmp_path, args, key, expected):
 def test_adaptive_min_samples_implies_adaptive(cli, tmp_path):
     _, stats, _ = render_json(cli, tmp_path, "--adaptive-min-samples", "4", spp=6)
     assert stats["adaptive"] is not None
-    assert stats["adaptive"]["min_samples"] == 4
+    assert stats["settings"]["adaptive_min_samples"] == 4
 
 
 # --- statistics ----------------------------------------------------------------------------------
@@ -153,7 +166,7 @@ def mode_reports(cli, tmp_path_factory):
 def test_tracing_statistics_are_present_and_sane(mode_reports, traversal):
     _, stats = mode_reports[traversal]
     # Existing keys unchanged.
-    for key in ["seconds", "spp", "rays", "mrays_per_s", "features", "sampler", "packet"]:
+    for key in ["seconds", "spp", "rays", "mrays_per_s", "features", "settings"]:
         assert key in stats, key
     for key in ["rays_per_second", "trace_seconds", "sort_seconds", "tests_per_ray", "simd_utilisation",
                 "bounces"]:
@@ -237,7 +250,7 @@ def test_renderer_honours_integrators(cli, tmp_path):
     for integrator in ["pt", "drt", "wrt", "rcs", "ao"]:
         _, report, _ = render_json(cli, tmp_path, "--integrator", integrator, "--ao-samples", 4,
                                    name=f"{integrator}.exr", res=16, spp=2)
-        assert report["integrator"] == integrator
+        assert report["settings"]["integrator"] == integrator
         assert report["nonfinite_samples"] == 0
         stats[integrator] = report
     camera = 16 * 16 * 2
