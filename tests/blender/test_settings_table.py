@@ -133,7 +133,19 @@ def test_blender_properties_follow_the_table(coherent_addon, props, table):
             assert (rna.hard_min, rna.hard_max) == (max(row["min"], -int32 - 1), min(row["max"], int32)), prop
 
 
-def test_renderer_kwargs_are_table_names_the_renderer_accepts(coherent_addon, native, props, table):
+@pytest.fixture
+def edited_props(props):
+    """scene.coherent, restored to its values after the test."""
+    saved = {p.identifier: getattr(props, p.identifier) for p in props.bl_rna.properties
+             if p.identifier != "rna_type" and not p.is_readonly}
+    saved = {k: (tuple(v) if hasattr(v, "__len__") and not isinstance(v, str) else v) for k, v in saved.items()}
+    yield props
+    for k, v in saved.items():
+        setattr(props, k, v)
+
+
+def test_renderer_kwargs_are_table_names_the_renderer_accepts(coherent_addon, native, edited_props, table):
+    props = edited_props
     kwargs = props.renderer_kwargs(bpy.context.scene)
     assert set(kwargs) <= set(table)
     props.integrator = "AO"
