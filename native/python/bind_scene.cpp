@@ -107,13 +107,16 @@ Closure closure_from_dict(const py::dict& d, size_t index) {
         const std::string arg = "closures[" + std::to_string(index) + "]['" + key + "']";
         const py::handle v = item.second;
         if (key == "base_color") c.base_color = max(to_vec3(v, arg.c_str()), Vec3f(0.0f));
-        else if (key == "metallic") c.metallic = unit_clamp(v.cast<double>(), arg.c_str());
-        else if (key == "roughness") c.roughness = unit_clamp(v.cast<double>(), arg.c_str());
-        else if (key == "specular") c.specular = unit_clamp(v.cast<double>(), arg.c_str());
-        else if (key == "transmission") c.transmission = unit_clamp(v.cast<double>(), arg.c_str());
-        else if (key == "principled_diffuse") c.principled_diffuse = v.cast<bool>();
+        else if (key == "metallic") c.metallic = unit_clamp(number_arg(v, arg), arg.c_str());
+        else if (key == "roughness") c.roughness = unit_clamp(number_arg(v, arg), arg.c_str());
+        else if (key == "specular") c.specular = unit_clamp(number_arg(v, arg), arg.c_str());
+        else if (key == "transmission") c.transmission = unit_clamp(number_arg(v, arg), arg.c_str());
+        else if (key == "principled_diffuse") {
+            if (!PyBool_Check(v.ptr())) throw py::type_error(arg + ": expected True or False");
+            c.principled_diffuse = v.cast<bool>();
+        }
         else if (key == "ior") {
-            c.ior = finite_float(v.cast<double>(), arg.c_str());
+            c.ior = finite_float(number_arg(v, arg), arg.c_str());
             if (!(c.ior > 0.0f)) throw py::value_error(arg + ": index of refraction must be > 0");
         } else {
             throw py::value_error("closures[" + std::to_string(index) + "]: unknown key '" + key +
@@ -214,7 +217,7 @@ size_t add_mesh(PyScene& self, const std::string& name, const py::handle& positi
 
     if (!material_slots_obj.is_none()) {
         for (auto item : py::iter(material_slots_obj)) {
-            const auto slot = item.cast<long long>();
+            const auto slot = integer_arg(item, "material_slots");
             if (slot < 0 || size_t(slot) >= self.scene.materials.size())
                 throw py::value_error("material_slots: material index " + std::to_string(slot) +
                                       " does not exist (scene has " + std::to_string(self.scene.materials.size()) +
@@ -254,7 +257,7 @@ Material material_from_args(const std::string& name, const py::handle& closures_
     std::vector<float> weights;
     if (!weights_obj.is_none()) {
         for (auto item : py::iter(weights_obj))
-            weights.push_back(non_negative(item.cast<double>(), "weights"));
+            weights.push_back(non_negative(number_arg(item, "weights"), "weights"));
         if (weights.size() != closures.size())
             throw py::value_error("weights: expected " + std::to_string(closures.size()) + " weights (one per closure), got " +
                                   std::to_string(weights.size()));

@@ -69,8 +69,10 @@ SettingValue to_value(const SettingSpec& spec, const py::handle& obj) {
             if (!py::isinstance<py::str>(obj)) wrong_type(spec, obj);
             return obj.cast<std::string>();
         case SettingType::Size: {
-            if (!py::isinstance<py::sequence>(obj) || py::isinstance<py::str>(obj) || py::len(obj) != 2)
-                wrong_type(spec, obj);
+            if (!py::isinstance<py::sequence>(obj) || py::isinstance<py::str>(obj)) wrong_type(spec, obj);
+            if (py::len(obj) != 2)
+                throw py::value_error(spec.name + ": expected " + describe_accepted(spec) + " as a pair, got " +
+                                      std::string(py::repr(obj)));
             const py::sequence seq = py::reinterpret_borrow<py::sequence>(obj);
             return SettingSize{to_int64(spec, seq[0]), to_int64(spec, seq[1])};
         }
@@ -93,10 +95,17 @@ py::object to_python(const SettingValue& value) {
 // derives from its own border settings; validate() checks it.
 void set_border(RenderSettings& s, const py::handle& border) {
     if (border.is_none()) return;
-    if (!py::isinstance<py::sequence>(border) || py::len(border) != 4)
+    if (!py::isinstance<py::sequence>(border) || py::isinstance<py::str>(border))
         throw py::type_error("border: expected (x0, y0, x1, y1) in pixels or None");
-    const auto b = border.cast<std::vector<int>>();
-    s.border_x0 = b[0], s.border_y0 = b[1], s.border_x1 = b[2], s.border_y1 = b[3];
+    if (py::len(border) != 4)
+        throw py::value_error("border: expected 4 corners (x0, y0, x1, y1), got " + std::string(py::repr(border)));
+    const py::sequence b = py::reinterpret_borrow<py::sequence>(border);
+    int* corners[4] = {&s.border_x0, &s.border_y0, &s.border_x1, &s.border_y1};
+    for (size_t i = 0; i < 4; ++i) {
+        const long long v = integer_arg(b[i], "border");
+        if (v < 0 || v > (1 << 16)) throw py::value_error("border: corner " + std::to_string(v) + " is outside any frame");
+        *corners[i] = int(v);
+    }
 }
 
 py::dict spec_dict(const SettingSpec& spec) {

@@ -55,6 +55,10 @@ void bind_render(py::module_& m);
 // Reads a length-3 float sequence (tuple, list, numpy array). Raises
 // ValueError naming `arg` if it has the wrong length or a non-finite entry.
 Vec3f to_vec3(const py::handle& obj, const char* arg);
+// A Python number (not a bool or a string) as a double; TypeError naming `arg` otherwise.
+double number_arg(const py::handle& obj, const std::string& arg);
+// A Python integer (or numpy integer; not a bool); TypeError naming `arg` otherwise.
+long long integer_arg(const py::handle& obj, const std::string& arg);
 // Scalar that must be finite. Raises ValueError naming `arg`.
 float finite_float(double v, const char* arg);
 

@@ -17,6 +17,23 @@ float finite_float(double v, const char* arg) {
     return f;
 }
 
+double number_arg(const py::handle& obj, const std::string& arg) {
+    // Python floats and ints, numpy scalars and anything with __float__; not
+    // bools or strings, which Python would happily convert.
+    if (PyBool_Check(obj.ptr()) || py::isinstance<py::str>(obj) || !PyNumber_Check(obj.ptr()) ||
+        !py::hasattr(obj, "__float__"))
+        throw py::type_error(arg + ": expected a number, got " +
+                             std::string(py::str(py::type::of(obj).attr("__name__"))));
+    return py::float_(py::reinterpret_borrow<py::object>(obj)).cast<double>();
+}
+
+long long integer_arg(const py::handle& obj, const std::string& arg) {
+    if (PyBool_Check(obj.ptr()) || !PyIndex_Check(obj.ptr()))
+        throw py::type_error(arg + ": expected an integer, got " +
+                             std::string(py::str(py::type::of(obj).attr("__name__"))));
+    return py::int_(py::reinterpret_borrow<py::object>(obj)).cast<long long>();
+}
+
 Vec3f to_vec3(const py::handle& obj, const char* arg) {
     // Tuples, lists, numpy arrays and Blender's mathutils.Vector/Color all qualify.
     if (obj.is_none() || !py::hasattr(obj, "__len__") || !py::hasattr(obj, "__getitem__"))
@@ -24,7 +41,7 @@ Vec3f to_vec3(const py::handle& obj, const char* arg) {
     if (py::len(obj) != 3)
         throw py::value_error(std::string(arg) + ": expected 3 components, got " + std::to_string(py::len(obj)));
     Vec3f v;
-    for (int i = 0; i < 3; ++i) v[i] = finite_float(obj[py::int_(i)].cast<double>(), arg);
+    for (int i = 0; i < 3; ++i) v[i] = finite_float(number_arg(obj[py::int_(i)], arg), arg);
     return v;
 }
 
