@@ -11,6 +11,12 @@ if str(bh.ADDON_DIR) not in sys.path:
     sys.path.insert(0, str(bh.ADDON_DIR))
 
 
+def pytest_configure(config):
+    config.addinivalue_line(
+        "markers", "shared: reads the public scenes in ../shared/scenes; runs only in the CTest entry "
+        "blender-shared (label `shared`), which every other entry deselects with -m 'not shared'")
+
+
 def addon_is_registered():
     import bpy
     return hasattr(bpy.types.Scene, "coherent")
@@ -28,6 +34,10 @@ def blend_scenes():
 
 @pytest.fixture(scope="session")
 def shared_scenes():
+    """../shared/scenes; only tests marked `shared` use it, and they run only
+    where it exists (.ci/run), so its absence is a failure, not a skip."""
+    if not bh.SHARED_SCENES.is_dir():
+        pytest.fail(f"{bh.SHARED_SCENES} does not exist; tests marked `shared` need the public scenes")
     return bh.SHARED_SCENES
 
 

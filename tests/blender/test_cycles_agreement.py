@@ -113,13 +113,14 @@ def report(name, stats):
 # than Lambert here), an emissive mesh as the light, and a grey world seen
 # through the open front.
 CASES = [("cornell_box.blend", "direct", 0), ("cornell_box.blend", "global", 12),
-         ("glass_scene.blend", "direct", 0), ("shared:cornell_box.blend", "global", 12)]
+         ("glass_scene.blend", "direct", 0),
+         pytest.param("shared:cornell_box.blend", "global", 12, marks=pytest.mark.shared)]
 
 
 @pytest.mark.parametrize("scene_file,name,max_bounces", CASES)
-def test_matches_cycles(blender, blend_scenes, shared_scenes, tmp_path, scene_file, name, max_bounces):
+def test_matches_cycles(blender, blend_scenes, request, tmp_path, scene_file, name, max_bounces):
     if scene_file.startswith("shared:"):
-        scene_path = shared_scenes / scene_file.split(":", 1)[1]
+        scene_path = request.getfixturevalue("shared_scenes") / scene_file.split(":", 1)[1]
     else:
         scene_path = blend_scenes / scene_file
     cycles = render_pair(blender, scene_path, "CYCLES", max_bounces, tmp_path)

@@ -132,14 +132,15 @@ def test_animation_two_frames(blender, blend_scenes, tmp_path):
 # The public scenes beside the checkout (../shared/scenes, see SOURCES.md
 # there): an emissive-mesh Cornell box and a 69k-triangle scan. The triangle
 # counts in SOURCES.md are an independent check that the export lost nothing.
+# Marked `shared`: they run in the CTest entry blender-shared only.
 SHARED = [("cornell_box.blend", 36), ("stanford_bunny.blend", 69451)]
 
 
+@pytest.mark.shared
 @pytest.mark.parametrize("scene_file,triangles", SHARED)
 def test_shared_scenes(blender, shared_scenes, tmp_path, scene_file, triangles):
     path = shared_scenes / scene_file
-    if not path.is_file():
-        pytest.skip(f"{path} not present")
+    assert path.is_file(), path
     tiny = bh.python_expr("scene.render.resolution_percentage = 10", "scene.coherent.samples = 4")
     result = blender(path, "-E", bh.ENGINE_ID, "--python-expr", tiny, "-o", tmp_path / "shared_####",
                      "-F", "PNG", "-f", "1")

@@ -1,8 +1,10 @@
 """Behaviour of the `coherent` command-line renderer.
 
 Run by ctest as `python3 -m pytest -q tests/cli` with COHERENT_CLI set to the
-built executable. Images are checked with `oiiotool` (openimageio-tools), an
-implementation independent of the one that wrote them.
+built executable; the `cli` and `cornell` (the generated Cornell box)
+fixtures live in conftest.py. Images are checked with `oiiotool`
+(openimageio-tools), an implementation independent of the one that wrote
+them.
 """
 import base64
 import json
@@ -15,19 +17,6 @@ import time
 from pathlib import Path
 
 import pytest
-
-REPO = Path(__file__).resolve().parents[2]
-SCENES = REPO.parent / "shared" / "scenes"
-CORNELL = SCENES / "cornell_box.glb"
-
-
-@pytest.fixture(scope="session")
-def cli():
-    path = os.environ.get("COHERENT_CLI")
-    if not path:
-        pytest.fail("COHERENT_CLI must name the built coherent executable (ctest sets it)")
-    assert Path(path).is_file(), path
-    return path
 
 
 def run(cli, *args, timeout=300):
@@ -141,9 +130,9 @@ BAD_ARGS = [
 
 
 @pytest.mark.parametrize("args", BAD_ARGS, ids=[" ".join(a[1:]) or a[0] for a in BAD_ARGS])
-def test_bad_arguments_exit_2_with_one_line(cli, tmp_path, args):
+def test_bad_arguments_exit_2_with_one_line(cli, cornell, tmp_path, args):
     out = tmp_path / "out.png"
-    subst = {"scene": str(CORNELL), "out": str(out), "stem": str(tmp_path / "out")}
+    subst = {"scene": str(cornell), "out": str(out), "stem": str(tmp_path / "out")}
     r = run(cli, *[a.format(**subst) for a in args])
     assert r.returncode == 2, r.stderr
     assert one_line(r.stderr), r.stderr
@@ -153,8 +142,8 @@ def test_bad_arguments_exit_2_with_one_line(cli, tmp_path, args):
 
 # --- bad input: exit 1, one line naming the file, nothing written -------------
 
-def bad_inputs(tmp_path):
-    glb = CORNELL.read_bytes()
+def bad_inputs(cornell, tmp_path):
+    glb = cornell.read_bytes()
     files = {
         "missing.glb": None,
         "empty.glb": b"",
@@ -174,10 +163,10 @@ def bad_inputs(tmp_path):
     return paths
 
 
-def test_bad_input_files_exit_1_with_one_line(cli, tmp_path):
+def test_bad_input_files_exit_1_with_one_line(cli, cornell, tmp_path):
     out_dir = tmp_path / "out"
     out_dir.mkdir()
-    for scene in bad_inputs(tmp_path):
+    for scene in bad_inputs(cornell, tmp_path):
         out = out_dir / "x.png"
         r = run(cli, "render", scene, "-o", out, "--res", "8", "8", "--spp", "1", "--json")
         assert r.returncode == 1, (scene.name, r.stderr)
@@ -187,9 +176,9 @@ def test_bad_input_files_exit_1_with_one_line(cli, tmp_path):
         assert not out.exists()
 
 
-def test_unwritable_output_exits_1(cli, tmp_path):
+def test_unwritable_output_exits_1(cli, cornell, tmp_path):
     out = tmp_path / "no" / "such" / "dir" / "x.png"
-    r = run(cli, "render", CORNELL, "-o", out, "--res", "8", "8", "--spp", "1")
+    r = run(cli, "render", cornell, "-o", out, "--res", "8", "8", "--spp", "1")
     assert r.returncode == 1
     assert one_line(r.stderr), r.stderr
     assert str(out) in r.stderr
@@ -198,13 +187,13 @@ def test_unwritable_output_exits_1(cli, tmp_path):
 # --- rendering ---------------------------------------------------------------
 
 @pytest.fixture(scope="module")
-def cornell_renders(cli, tmp_path_factory):
+def cornell_renders(cli, cornell, tmp_path_factory):
     """The Cornell box at 64x64, 4 spp, to PNG and EXR, with --json."""
     d = tmp_path_factory.mktemp("cornell")
     results = {}
     for ext in ("png", "exr"):
         out = d / f"cornell.{ext}"
-        r = run(cli, "render", CORNELL, "-o", out, "--res", 64, 64, "--spp", 4, "--seed", 7, "--json")
+        r = run(cli, "render", cornell, "-o", out, "--res", 64, 64, "--spp", 4, "--seed", 7, "--json")
         results[ext] = (out, r)
     return results
 
@@ -225,10 +214,11 @@ def test_render_json_statistics(cornell_renders, ext):
     rays = stats["rays"]
     assert rays["camera"] == 64 * 64 * 4
     assert rays["total"] == sum(v for k, v in rays.items() if k != "total")
-    # Diffuse walls and an emitter: no glass, so no refraction rays at all.
-    assert rays.get("refraction", 0) == 0
-    assert "glass" not in stats["features"]
-    assert "emissive_meshes" in stats["features"]
+    # The generated box holds every material kind and both light kinds; the
+    # glass sphere and the metal block must each spawn their own rays.
+    for feature in ["emissive_meshes", "point_lights", "diffuse", "glossy", "glass"]:
+        assert feature in stats["features"], stats["features"]
+    assert rays["refraction"] > 0 and rays["reflection"] > 0 and rays["glossy"] > 0
     assert rays["total"] > rays["camera"]  # light transport beyond primary rays
     assert stats["seconds"] > 0 and stats["mrays_per_s"] > 0
     assert stats["nonfinite_samples"] == 0
@@ -247,10 +237,10 @@ def test_png_output_is_readable_and_lit(cornell_renders):
     assert len(px) == 64 * 64
     mean = sum(sum(v[:3]) for v in px.values()) / (3 * len(px))
     assert mean > 0.1, mean  # sRGB-encoded: a lit box, not black
-    assert all(v[3] == 1.0 for v in px.values())  # every pixel sees the box
+    assert all(v[3] == 1.0 for v in px.values())  # opaque film (no Film > Transparent): alpha 1 everywhere
     # Left wall is red and right wall green (image row 0 is the top).
-    # Albedos (0.63, 0.065, 0.05) and (0.14, 0.45, 0.091): linear ratios ~10 and
-    # ~3.2, about 3 and 1.6 after sRGB encoding.
+    # Albedos (0.65, 0.05, 0.05) and (0.12, 0.45, 0.15): linear ratios ~13 and
+    # ~3.75, about 3.3 and 1.5 after sRGB encoding and the white light's bounces.
     left = [px[(x, y)] for x in range(1, 6) for y in range(24, 40)]
     right = [px[(x, y)] for x in range(59, 64) for y in range(24, 40)]
     assert sum(p[0] for p in left) > 2 * sum(p[1] for p in left)
@@ -266,10 +256,11 @@ def test_exr_output_has_all_passes(cornell_renders):
         assert c in channels, channels
     px = oiio_pixels(out)
     index = {c: i for i, c in enumerate(channels)}
-    # Pixel (40, 16) sees the back wall (z = -1, above the tall box) from z = 6.8:
-    # depth ~7.8 along the view axis and normal facing the camera.
+    # Pixel (40, 16) sees the back wall (z = -1, above the glass sphere) from
+    # the camera at z = 3.9 looking down -Z: depth 4.9 along the view axis
+    # for every back-wall pixel, and the normal faces the camera.
     centre = px[(40, 16)]
-    assert 6.0 < centre[index["Z"]] < 8.0
+    assert centre[index["Z"]] == pytest.approx(4.9, abs=1e-3)
     assert abs(centre[index["N.Z"]]) > 0.9
     mean = sum(sum(v[index[c]] for c in "RGB") for v in px.values()) / (3 * len(px))
     assert mean > 0.02, mean
@@ -277,9 +268,9 @@ def test_exr_output_has_all_passes(cornell_renders):
         assert all(abs(x) < 1e11 for x in v)  # finite everywhere
 
 
-def test_plain_mode_prints_summary(cli, tmp_path):
+def test_plain_mode_prints_summary(cli, cornell, tmp_path):
     out = tmp_path / "plain.png"
-    r = run(cli, "render", CORNELL, "-o", out, "--res", 16, 16, "--spp", 1)
+    r = run(cli, "render", cornell, "-o", out, "--res", 16, 16, "--spp", 1)
     assert r.returncode == 0, r.stderr
     assert one_line(r.stdout) and str(out) in r.stdout
     assert out.exists()
@@ -300,12 +291,12 @@ def test_dropped_input_is_one_warning_and_in_json(cli, tmp_path):
     assert sum(v[0] for v in px.values()) / len(px) > 0.2
 
 
-def test_seed_and_threads_reach_the_renderer(cli, tmp_path):
+def test_seed_and_threads_reach_the_renderer(cli, cornell, tmp_path):
     """Same seed: the same image whatever the thread count; another seed: a different one."""
     images = {}
     for name, seed, threads in [("a", 5, 1), ("b", 5, 2), ("c", 6, 2)]:
         out = tmp_path / f"{name}.exr"
-        r = run(cli, "render", CORNELL, "-o", out, "--res", 24, 24, "--spp", 2, "--seed", seed,
+        r = run(cli, "render", cornell, "-o", out, "--res", 24, 24, "--spp", 2, "--seed", seed,
                 "--threads", threads, "--json")
         assert r.returncode == 0, r.stderr
         assert json.loads(r.stdout)["settings"]["seed"] == seed
@@ -314,22 +305,22 @@ def test_seed_and_threads_reach_the_renderer(cli, tmp_path):
     assert images["a"] != images["c"]
 
 
-def test_max_bounces_reaches_the_renderer(cli, tmp_path):
+def test_max_bounces_reaches_the_renderer(cli, cornell, tmp_path):
     totals = {}
     for bounces in (0, 8):
-        r = run(cli, "render", CORNELL, "-o", tmp_path / f"b{bounces}.png", "--res", 16, 16, "--spp", 2,
+        r = run(cli, "render", cornell, "-o", tmp_path / f"b{bounces}.png", "--res", 16, 16, "--spp", 2,
                 "--max-bounces", bounces, "--json")
         assert r.returncode == 0, r.stderr
         stats = json.loads(r.stdout)
         assert stats["settings"]["max_bounces"] == bounces
         totals[bounces] = stats["rays"]["total"]
-    # Longer paths in a closed box: more rays (same seed, same camera rays).
+    # Longer paths inside the box: more rays (same seed, same camera rays).
     assert totals[0] < totals[8]
 
 
-def test_sigint_cancels_without_writing(cli, tmp_path):
+def test_sigint_cancels_without_writing(cli, cornell, tmp_path):
     out = tmp_path / "interrupted.exr"
-    proc = subprocess.Popen([cli, "render", str(CORNELL), "-o", str(out), "--res", "256", "256",
+    proc = subprocess.Popen([cli, "render", str(cornell), "-o", str(out), "--res", "256", "256",
                              "--spp", "100000", "--json"],
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     # Wait until the process catches SIGINT (bit 1 of SigCgt in /proc), so a
@@ -358,9 +349,9 @@ def test_sigint_cancels_without_writing(cli, tmp_path):
 
 # --- stopping rules and the error estimate -----------------------------------
 
-def test_target_error_stops_early_and_json_reports_spp_taken(cli, tmp_path):
+def test_target_error_stops_early_and_json_reports_spp_taken(cli, cornell, tmp_path):
     out = tmp_path / "target.exr"
-    r = run(cli, "render", CORNELL, "-o", out, "--res", 24, 24, "--spp", 100000, "--target-error", "0.15",
+    r = run(cli, "render", cornell, "-o", out, "--res", 24, 24, "--spp", 100000, "--target-error", "0.15",
             "--json")
     assert r.returncode == 0, r.stderr
     stats = json.loads(r.stdout)
@@ -375,18 +366,18 @@ def test_target_error_stops_early_and_json_reports_spp_taken(cli, tmp_path):
     assert out.exists()
 
     # Without a stopping rule every requested sample is taken and the estimate is reported.
-    r = run(cli, "render", CORNELL, "-o", tmp_path / "full.exr", "--res", 8, 8, "--spp", 6, "--json")
+    r = run(cli, "render", cornell, "-o", tmp_path / "full.exr", "--res", 8, 8, "--spp", 6, "--json")
     assert r.returncode == 0, r.stderr
     stats = json.loads(r.stdout)
     assert stats["spp"] == 6 and stats["settings"]["spp"] == 6
     assert stats["error_estimate"] > 0.0
     # One pass has no odd half: no estimate yet.
-    r = run(cli, "render", CORNELL, "-o", tmp_path / "one.exr", "--res", 8, 8, "--spp", 1, "--json")
+    r = run(cli, "render", cornell, "-o", tmp_path / "one.exr", "--res", 8, 8, "--spp", 1, "--json")
     assert json.loads(r.stdout)["error_estimate"] is None
 
 
-def test_time_limit_stops_early(cli, tmp_path):
-    r = run(cli, "render", CORNELL, "-o", tmp_path / "t.png", "--res", 16, 16, "--spp", 1000000,
+def test_time_limit_stops_early(cli, cornell, tmp_path):
+    r = run(cli, "render", cornell, "-o", tmp_path / "t.png", "--res", 16, 16, "--spp", 1000000,
             "--time-limit", "0.5", "--json")
     assert r.returncode == 0, r.stderr
     stats = json.loads(r.stdout)
@@ -397,9 +388,9 @@ def test_time_limit_stops_early(cli, tmp_path):
 @pytest.mark.parametrize("option,value", [("--target-error", "-0.1"), ("--target-error", "abc"),
                                           ("--time-limit", "-1"), ("--time-limit", "inf"),
                                           ("--time-limit", "nan"), ("--target-error", "")])
-def test_stopping_rule_options_reject_bad_values(cli, tmp_path, option, value):
+def test_stopping_rule_options_reject_bad_values(cli, cornell, tmp_path, option, value):
     out = tmp_path / "x.png"
-    r = run(cli, "render", CORNELL, "-o", out, "--res", 8, 8, "--spp", 1, option, value)
+    r = run(cli, "render", cornell, "-o", out, "--res", 8, 8, "--spp", 1, option, value)
     assert r.returncode == 2, r.stderr
     assert one_line(r.stderr) and option in r.stderr
     assert not out.exists()
@@ -417,10 +408,10 @@ def read_convergence(path):
 
 
 @pytest.fixture(scope="module")
-def convergence_csv(cli, tmp_path_factory):
+def convergence_csv(cli, cornell, tmp_path_factory):
     d = tmp_path_factory.mktemp("convergence")
     csv = d / "cornell.csv"
-    r = run(cli, "render", CORNELL, "-o", d / "cornell.png", "--res", 48, 48, "--spp", 32, "--threads", 2,
+    r = run(cli, "render", cornell, "-o", d / "cornell.png", "--res", 48, 48, "--spp", 32, "--threads", 2,
             "--json", "--convergence", csv)
     assert r.returncode == 0, r.stderr
     return csv, json.loads(r.stdout)
@@ -441,9 +432,9 @@ def test_convergence_csv_has_one_row_per_pass_with_an_estimate(convergence_csv):
     assert errors[-1] < 0.5 * errors[0], errors
 
 
-def test_convergence_with_target_error_ends_at_or_below_target(cli, tmp_path):
+def test_convergence_with_target_error_ends_at_or_below_target(cli, cornell, tmp_path):
     csv = tmp_path / "c.csv"
-    r = run(cli, "render", CORNELL, "-o", tmp_path / "c.png", "--res", 48, 48, "--spp", 4096, "--threads", 2,
+    r = run(cli, "render", cornell, "-o", tmp_path / "c.png", "--res", 48, 48, "--spp", 4096, "--threads", 2,
             "--target-error", "0.5", "--convergence", csv)
     assert r.returncode == 0, r.stderr
     rows = read_convergence(csv)
@@ -452,9 +443,9 @@ def test_convergence_with_target_error_ends_at_or_below_target(cli, tmp_path):
     assert all(e > 0.5 for _, n, e in rows[:-1] if n % 2 == 0), rows
 
 
-def test_convergence_unwritable_path_fails_before_rendering(cli, tmp_path):
+def test_convergence_unwritable_path_fails_before_rendering(cli, cornell, tmp_path):
     out = tmp_path / "never.png"
-    r = run(cli, "render", CORNELL, "-o", out, "--res", 16, 16, "--spp", 2,
+    r = run(cli, "render", cornell, "-o", out, "--res", 16, 16, "--spp", 2,
             "--convergence", tmp_path / "missing_dir" / "c.csv")
     assert r.returncode == 1
     assert one_line(r.stderr) and "convergence" in r.stderr

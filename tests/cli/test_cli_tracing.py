@@ -15,16 +15,16 @@ import subprocess
 
 import pytest
 
-# Helpers and the `cli` fixture are shared with the main CLI tests.
-from test_cli import CORNELL, cli, one_line, oiio_info, oiio_pixels, run  # noqa: F401  (cli is a fixture)
+# Helpers are shared with the main CLI tests; the fixtures live in conftest.py.
+from test_cli import one_line, oiio_info, oiio_pixels, run
 
 TRACING_OPTIONS = ["--integrator", "--traversal", "--assembly", "--bvh-width", "--reorder", "--wave-size",
                    "--ao-samples", "--ao-distance", "--heatmaps", "--adaptive-min-samples"]
 
 
-def render_json(cli, tmp_path, *args, name="out.exr", res=16, spp=2):
+def render_json(cli, cornell, tmp_path, *args, name="out.exr", res=16, spp=2):
     out = tmp_path / name
-    r = run(cli, "render", CORNELL, "-o", out, "--res", res, res, "--spp", spp, "--seed", 3, "--json", *args)
+    r = run(cli, "render", cornell, "-o", out, "--res", res, res, "--spp", spp, "--seed", 3, "--json", *args)
     assert r.returncode == 0, r.stderr
     return out, json.loads(r.stdout), r
 
@@ -43,14 +43,14 @@ def exr_values(path, channel):
 
 # --- parsing -------------------------------------------------------------------------------------
 
-def test_every_setting_is_an_option_and_a_report_key(cli, tmp_path):
+def test_every_setting_is_an_option_and_a_report_key(cli, cornell, tmp_path):
     """One settings table: each option --help lists beyond the CLI's own is a
     key of the report's settings block with the same name, and vice versa."""
     help_text = run(cli, "render", "--help").stdout
     options = set(re.findall(r"^  (--[a-z0-9-]+)", help_text, re.M))
     cli_only = {"--output", "--res", "--convergence", "--json", "--help"}
     assert cli_only <= options
-    _, stats, _ = render_json(cli, tmp_path, res=8, spp=1)
+    _, stats, _ = render_json(cli, cornell, tmp_path, res=8, spp=1)
     keys = {("--all-features" if k == "force_all_features" else "--" + k.replace("_", "-")) for k in stats["settings"]}
     assert keys == options - cli_only
 
@@ -78,9 +78,9 @@ BAD_VALUES = [
 
 
 @pytest.mark.parametrize("option,value", BAD_VALUES, ids=[f"{o} {v!r}" for o, v in BAD_VALUES])
-def test_bad_tracing_values_exit_2_naming_the_option(cli, tmp_path, option, value):
+def test_bad_tracing_values_exit_2_naming_the_option(cli, cornell, tmp_path, option, value):
     out = tmp_path / "x.png"
-    r = run(cli, "render", CORNELL, "-o", out, "--res", 8, 8, "--spp", 1, option, value)
+    r = run(cli, "render", cornell, "-o", out, "--res", 8, 8, "--spp", 1, option, value)
     assert r.returncode == 2, r.stderr
     assert one_line(r.stderr), r.stderr
     assert option in r.stderr
@@ -89,21 +89,21 @@ def test_bad_tracing_values_exit_2_naming_the_option(cli, tmp_path, option, valu
 
 
 @pytest.mark.parametrize("args", [["--integrator"], ["--heatmaps=yes"], ["--bvh-width"]])
-def test_missing_or_unexpected_values_exit_2(cli, tmp_path, args):
-    r = run(cli, "render", CORNELL, "-o", tmp_path / "x.png", "--res", 8, 8, *args)
+def test_missing_or_unexpected_values_exit_2(cli, cornell, tmp_path, args):
+    r = run(cli, "render", cornell, "-o", tmp_path / "x.png", "--res", 8, 8, *args)
     assert r.returncode == 2, r.stderr
     assert one_line(r.stderr), r.stderr
 
 
-def test_auto_traversal_is_packets_with_cpt(cli, tmp_path):
-    _, stats, _ = render_json(cli, tmp_path, "--sampler", "cpt")
+def test_auto_traversal_is_packets_with_cpt(cli, cornell, tmp_path):
+    _, stats, _ = render_json(cli, cornell, tmp_path, "--sampler", "cpt")
     assert stats["settings"]["traversal"] == "packet"
-    _, stats, _ = render_json(cli, tmp_path, "--sampler", "spt", "--traversal", "auto")
+    _, stats, _ = render_json(cli, cornell, tmp_path, "--sampler", "spt", "--traversal", "auto")
     assert stats["settings"]["traversal"] == "single"
 
 
-def test_defaults_in_json(cli, tmp_path):
-    _, stats, _ = render_json(cli, tmp_path)
+def test_defaults_in_json(cli, cornell, tmp_path):
+    _, stats, _ = render_json(cli, cornell, tmp_path)
     assert stats["settings"]["integrator"] == "pt"
     assert stats["settings"]["traversal"] == "single"
     assert stats["settings"]["assembly"] == "types"
@@ -133,15 +133,15 @@ ACCEPTED = [
 
 
 @pytest.mark.parametrize("args,key,expected", ACCEPTED, ids=[" ".join(a) for a, _, _ in ACCEPTED])
-def test_accepted_values_reach_the_report(cli, tmp_path, args, key, expected):
-    out, stats, r = render_json(cli, tmp_path, *args, res=8, spp=1)
+def test_accepted_values_reach_the_report(cli, cornell, tmp_path, args, key, expected):
+    out, stats, r = render_json(cli, cornell, tmp_path, *args, res=8, spp=1)
     assert stats["settings"][key] == expected
     assert out.exists()
     assert r.stderr == ""
 
 
-def test_adaptive_min_samples_implies_adaptive(cli, tmp_path):
-    _, stats, _ = render_json(cli, tmp_path, "--adaptive-min-samples", "4", spp=6)
+def test_adaptive_min_samples_implies_adaptive(cli, cornell, tmp_path):
+    _, stats, _ = render_json(cli, cornell, tmp_path, "--adaptive-min-samples", "4", spp=6)
     assert stats["adaptive"] is not None
     assert stats["settings"]["adaptive_min_samples"] == 4
 
@@ -149,13 +149,13 @@ def test_adaptive_min_samples_implies_adaptive(cli, tmp_path):
 # --- statistics ----------------------------------------------------------------------------------
 
 @pytest.fixture(scope="module")
-def mode_reports(cli, tmp_path_factory):
+def mode_reports(cli, cornell, tmp_path_factory):
     """--json reports of the Cornell box at 24x24, 2 spp, seed 3, per traversal mode."""
     d = tmp_path_factory.mktemp("modes")
     reports = {}
     for traversal in ["single", "packet", "stream", "wavefront"]:
         out = d / f"{traversal}.exr"
-        r = run(cli, "render", CORNELL, "-o", out, "--res", 24, 24, "--spp", 2, "--seed", 3, "--threads", 2,
+        r = run(cli, "render", cornell, "-o", out, "--res", 24, 24, "--spp", 2, "--seed", 3, "--threads", 2,
                 "--traversal", traversal, "--json")
         assert r.returncode == 0, r.stderr
         reports[traversal] = (out, json.loads(r.stdout))
@@ -233,22 +233,23 @@ def test_renderer_honours_traversal_modes_agree(mode_reports, traversal):
     assert worst <= 1e-4 * max(1.0, max(a[p][c] for p in a for c in rgb)), worst
 
 
-def test_renderer_honours_bvh_width(cli, tmp_path):
+def test_renderer_honours_bvh_width(cli, cornell, tmp_path):
     """Wider nodes: fewer node visits per ray (same rays, same hits)."""
     visits = {}
     for width in (2, 8):
-        _, stats, _ = render_json(cli, tmp_path, "--bvh-width", width, "--integrator", "rcs",
+        _, stats, _ = render_json(cli, cornell, tmp_path, "--bvh-width", width, "--integrator", "rcs",
                                   name=f"w{width}.exr", res=24, spp=1)
         visits[width] = stats["tests_per_ray"]["node_visits"]
     assert visits[8] < visits[2], visits
 
 
-def test_renderer_honours_integrators(cli, tmp_path):
-    """How far each integrator follows paths in the Cornell box (diffuse and
-    glossy walls, no mirror or glass, an emissive mesh as the light)."""
+def test_renderer_honours_integrators(cli, cornell, tmp_path):
+    """How far each integrator follows paths in the generated Cornell box
+    (diffuse walls, a glossy metal block, a smooth glass sphere, an emissive
+    quad and a point light)."""
     stats = {}
     for integrator in ["pt", "drt", "wrt", "rcs", "ao"]:
-        _, report, _ = render_json(cli, tmp_path, "--integrator", integrator, "--ao-samples", 4,
+        _, report, _ = render_json(cli, cornell, tmp_path, "--integrator", integrator, "--ao-samples", 4,
                                    name=f"{integrator}.exr", res=16, spp=2)
         assert report["settings"]["integrator"] == integrator
         assert report["nonfinite_samples"] == 0
@@ -258,22 +259,29 @@ def test_renderer_honours_integrators(cli, tmp_path):
     total = {i: s["rays"]["total"] for i, s in stats.items()}
     # Path tracing: diffuse interreflection, paths of many bounces in a closed box.
     assert stats["pt"]["rays"]["diffuse"] > 0 and depth["pt"] > 3, depth
-    # Ray casting, and Whitted without mirrors or glass: direct light at the
-    # first hit only. Bounce 1 may hold the BSDF-sampled rays of MIS (at most
-    # one per camera ray); nothing goes deeper.
-    for integrator in ["rcs", "wrt"]:
-        assert depth[integrator] <= 2, (integrator, depth)
-        if depth[integrator] == 2:
-            assert stats[integrator]["bounces"][1]["rays"] <= camera, stats[integrator]["bounces"]
+    # Ray casting: direct light at the first hit only. Bounce 1 may hold the
+    # BSDF-sampled rays of MIS (at most one per camera ray); nothing goes deeper.
+    assert depth["rcs"] <= 2, depth
+    if depth["rcs"] == 2:
+        assert stats["rcs"]["bounces"][1]["rays"] <= camera, stats["rcs"]["bounces"]
+    # Whitted: the same at diffuse and glossy hits, but it follows the glass
+    # sphere's perfectly specular chains, so a few paths go deeper; only the
+    # pixels that see the sphere continue past bounce 1.
+    wrt = stats["wrt"]["bounces"]
+    assert depth["wrt"] > 2, depth
+    assert sum(b["rays"] for b in wrt[2:]) < wrt[1]["rays"] <= camera + stats["wrt"]["rays"]["refraction"], wrt
     # Distribution ray tracing follows only the glossy lobes: between the two.
     assert total["rcs"] <= total["drt"] < total["pt"], total
-    # Ambient occlusion: 4 occlusion rays per camera ray that hits (all of them in a closed box), nothing else.
-    assert total["ao"] - stats["ao"]["rays"]["camera"] == 4 * camera
+    # Ambient occlusion: 4 occlusion rays per camera ray that hits, nothing
+    # else. The box fills all but a thin border of the frame (make_gltf.py's
+    # camera sees just past the walls' front edges), so most camera rays hit.
+    occlusion = total["ao"] - stats["ao"]["rays"]["camera"]
+    assert occlusion % 4 == 0 and 0.8 * 4 * camera < occlusion <= 4 * camera, occlusion
 
 
-def test_renderer_honours_ambient_occlusion(cli, tmp_path):
+def test_renderer_honours_ambient_occlusion(cli, cornell, tmp_path):
     """AO is a grey image with values in [0, 1]: white where open, darker in the corners."""
-    out, stats, _ = render_json(cli, tmp_path, "--integrator", "ao", "--ao-samples", 8, res=32, spp=4)
+    out, stats, _ = render_json(cli, cornell, tmp_path, "--integrator", "ao", "--ao-samples", 8, res=32, spp=4)
     _, _, channels = oiio_info(out)
     px = oiio_pixels(out)
     r, g, b = (channels.index(c) for c in "RGB")
@@ -285,15 +293,15 @@ def test_renderer_honours_ambient_occlusion(cli, tmp_path):
     assert min(values) < 0.8 * max(values)  # corners and contacts are occluded
 
     # A very short occlusion distance sees (almost) nothing: (almost) white.
-    out, _, _ = render_json(cli, tmp_path, "--integrator", "ao", "--ao-samples", 8, "--ao-distance", "1e-4",
+    out, _, _ = render_json(cli, cornell, tmp_path, "--integrator", "ao", "--ao-samples", 8, "--ao-distance", "1e-4",
                             name="short.exr", res=32, spp=4)
     px = oiio_pixels(out)
     short = [v[r] for v in px.values()]
     assert sum(short) / len(short) > max(0.98, mean), (sum(short) / len(short), mean)
 
 
-def test_renderer_honours_wavefront_reordering(cli, tmp_path):
-    _, stats, _ = render_json(cli, tmp_path, "--traversal", "wavefront", "--reorder", "hash32", "--wave-size",
+def test_renderer_honours_wavefront_reordering(cli, cornell, tmp_path):
+    _, stats, _ = render_json(cli, cornell, tmp_path, "--traversal", "wavefront", "--reorder", "hash32", "--wave-size",
                               "256", res=24, spp=2)
     assert stats["sort_seconds"] > 0.0
     assert stats["trace_seconds"] > 0.0
@@ -302,20 +310,20 @@ def test_renderer_honours_wavefront_reordering(cli, tmp_path):
 # --- heatmaps ------------------------------------------------------------------------------------
 
 @pytest.fixture(scope="module")
-def heatmap_render(cli, tmp_path_factory):
+def heatmap_render(cli, cornell, tmp_path_factory):
     d = tmp_path_factory.mktemp("heat")
     out = d / "cornell.exr"
-    r = run(cli, "render", CORNELL, "-o", out, "--res", 32, 24, "--spp", 2, "--traversal", "packet",
+    r = run(cli, "render", cornell, "-o", out, "--res", 32, 24, "--spp", 2, "--traversal", "packet",
             "--heatmaps", "--json")
     assert r.returncode == 0, r.stderr
     return d, out, json.loads(r.stdout), r
 
 
-def test_heatmaps_warn_where_visits_are_not_counted(cli, tmp_path, heatmap_render):
+def test_heatmaps_warn_where_visits_are_not_counted(cli, cornell, tmp_path, heatmap_render):
     # Streams count BVH visits per node queue, not per pixel: the visits
     # heatmap is zero and the CLI says so; packets count them, silently.
     assert "does not count BVH visits" not in heatmap_render[3].stderr
-    r = run(cli, "render", CORNELL, "-o", tmp_path / "s.exr", "--res", 16, 12, "--spp", 1, "--traversal", "stream",
+    r = run(cli, "render", cornell, "-o", tmp_path / "s.exr", "--res", 16, 12, "--spp", 1, "--traversal", "stream",
             "--heatmaps")
     assert r.returncode == 0, r.stderr
     assert "--traversal stream does not count BVH visits per path" in r.stderr
@@ -378,9 +386,9 @@ def test_renderer_honours_heatmaps(heatmap_render):
     assert sum(simd) / len(simd) < 1.0  # packets lose some coherence somewhere (edges, bounces)
 
 
-def test_heatmaps_plain_mode_prints_value_ranges(cli, tmp_path):
+def test_heatmaps_plain_mode_prints_value_ranges(cli, cornell, tmp_path):
     out = tmp_path / "plain.png"
-    r = run(cli, "render", CORNELL, "-o", out, "--res", 16, 16, "--spp", 1, "--heatmaps")
+    r = run(cli, "render", cornell, "-o", out, "--res", 16, 16, "--spp", 1, "--heatmaps")
     assert r.returncode == 0, r.stderr
     lines = r.stdout.strip().split("\n")
     assert len(lines) == 3, r.stdout
@@ -390,9 +398,9 @@ def test_heatmaps_plain_mode_prints_value_ranges(cli, tmp_path):
     assert (tmp_path / "plain.bvh_visits.png").exists() and (tmp_path / "plain.simd.exr").exists()
 
 
-def test_heatmaps_unwritable_stem_fails(cli, tmp_path):
+def test_heatmaps_unwritable_stem_fails(cli, cornell, tmp_path):
     # The heatmap paths are derived from -o; make one of them a directory.
     (tmp_path / "x.simd.exr").mkdir()
-    r = run(cli, "render", CORNELL, "-o", tmp_path / "x.png", "--res", 8, 8, "--spp", 1, "--heatmaps")
+    r = run(cli, "render", cornell, "-o", tmp_path / "x.png", "--res", 8, 8, "--spp", 1, "--heatmaps")
     assert r.returncode == 1
     assert one_line(r.stderr) and "x.simd.exr" in r.stderr, r.stderr

@@ -5,12 +5,11 @@
 
 #include <cmath>
 #include <cstdio>
-#include <filesystem>
 #include <map>
 #include <string>
 #include <vector>
 
-#include "io/gltf.h"
+#include "test_fixtures.h"
 #include "test_render_helpers.h"
 
 namespace coherent {
@@ -20,15 +19,6 @@ namespace {
 constexpr int kRes = 48;
 
 const char* name_of(SamplerType t) { return sampler_type_name(t).data(); }  // literals: NUL-terminated
-
-bool load_shared(const std::string& name, Scene& scene) {
-    const std::string path = std::string(COHERENT_SHARED_SCENES) + "/" + name;
-    if (!std::filesystem::exists(path)) return false;
-    const GltfLoadResult r = load_gltf(path, scene, 1.0f);
-    if (!r.ok) return false;
-    scene.finalize();
-    return true;
-}
 
 
 RenderSettings base_settings(int spp, SamplerType sampler, uint64_t seed) {
@@ -118,7 +108,8 @@ void check_estimate_tracks_truth(SceneCase& sc) {
 
 TEST(ErrorEstimate, TracksTrueErrorCornellBox) {
     SceneCase sc{"cornell_box", {}, {}, 0.0};
-    if (!load_shared("cornell_box.glb", sc.scene)) GTEST_SKIP() << "public scene not found";
+    ASSERT_TRUE(test::load_fixture("cornell_box.glb", sc.scene));
+    sc.scene.finalize();
     check_estimate_tracks_truth(sc);
 }
 

@@ -9,7 +9,6 @@
 
 #include <cmath>
 #include <cstring>
-#include <filesystem>
 #include <limits>
 #include <random>
 #include <string>
@@ -18,7 +17,7 @@
 #include "accel/bvh.h"
 #include "accel/ray_packet.h"
 #include "bvh_test_meshes.h"
-#include "io/gltf.h"
+#include "test_fixtures.h"
 #include "scene/scene.h"
 
 using namespace coherent;
@@ -426,13 +425,10 @@ TEST(PacketTraversal, CountersDescribeTheWork) {
         << "coherent 8x8 packets: " << packet_box << " box tests per ray, single rays: " << single_box;
 }
 
-TEST(PacketTraversal, StanfordBunnyCameraAndBounceRays) {
-    const std::string path = std::string(COHERENT_SHARED_SCENES) + "/stanford_bunny.glb";
-    if (!std::filesystem::exists(path)) GTEST_SKIP() << "public scene not found: " << path;
+TEST(PacketTraversal, GeneratedCornellBoxCameraAndBounceRays) {
     const int w = 128, h = 96;
     Scene scene;
-    const GltfLoadResult res = load_gltf(path, scene, float(w) / float(h));
-    ASSERT_TRUE(res.ok) << res.error;
+    ASSERT_TRUE(test::load_fixture("cornell_box.glb", scene, float(w) / float(h)));
     scene.finalize();
     Bvh bvh;
     bvh.build(scene);
