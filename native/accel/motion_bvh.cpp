@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "../core/float_bounds.h"
 #include "triangle.h"
 
 namespace coherent {
@@ -14,8 +15,6 @@ namespace {
 
 constexpr int kBins = 12;
 constexpr uint32_t kMaxLeaf = 4;
-// Ize's far-distance scaling (see traverse_single.cpp): 1 + 2 gamma(3).
-constexpr float kFarScale = 1.0f + 2.0f * (3.0f * 0x1p-24f) / (1.0f - 3.0f * 0x1p-24f);
 
 struct BuildRef {
     BBox box;

@@ -25,6 +25,7 @@
 #include <cmath>
 #include <vector>
 
+#include "../core/simd.h"
 #include "aligned_allocator.h"
 #include "bvh.h"
 #include "wide_kernel.h"
@@ -34,6 +35,7 @@ namespace coherent {
 namespace {
 
 using namespace kernel;
+using simd::vfloat8;
 
 // A ray waiting at a node: its index in the batch and its entry distance
 // into the node's box (the box test's tnear).
@@ -150,7 +152,7 @@ void trace_batch(const WideNode8* nodes, const TrianglePack4* packs, float magni
                 ++st.culled;
                 continue;
             }
-            __m256 entry;
+            vfloat8 entry;
             int mask;
             if (sr.box.fused) mask = intersect_node<true>(node, BoxRay<WideNode8>(sr.box), sr.tmin, sr.cull, entry);
             else mask = intersect_node<false>(node, BoxRay<WideNode8>(sr.box), sr.tmin, sr.cull, entry);
@@ -161,7 +163,7 @@ void trace_batch(const WideNode8* nodes, const TrianglePack4* packs, float magni
             ws.scratch_ray[kept] = q.ray;
             ws.scratch_mask[kept] = static_cast<uint8_t>(mask);
             float* entries = &ws.scratch_entry[kept * kWideWidth];
-            _mm256_storeu_ps(entries, entry);
+            storeu(entries, entry);
             for (int m = mask; m; m &= m - 1) {
                 const int c = __builtin_ctz(m);
                 ++child_rays[c];

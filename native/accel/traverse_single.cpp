@@ -11,8 +11,6 @@
 //
 // Hits count for t in (tmin, tmax]. Invalid rays (NaN, zero or infinite
 // direction, tmin > tmax) hit nothing.
-#include <immintrin.h>
-
 #include <cmath>
 #include <cstddef>
 
@@ -44,8 +42,7 @@ template <bool kAnyHit, bool kCount, bool kFused, class Node>
 __attribute__((always_inline)) inline bool traverse_wide(const Node* nodes, const TrianglePack4* packs,
                                                          const BoxRay<Node>& box_ray, const TriRay& tri_ray,
                                                          float tmin, Closest& best, TraversalCounters* counters) {
-    using S = typename NodeTraits<Node>::S;
-    constexpr int W = S::kWidth;
+    constexpr int W = NodeTraits<Node>::kWidth;
     // Boxes farther than this cannot hold a closer hit; recomputed only when
     // a leaf moved best.t (any-hit queries never change it).
     float cull = cull_distance(best.t);
@@ -74,8 +71,8 @@ __attribute__((always_inline)) inline bool traverse_wide(const Node* nodes, cons
             // The child references (the node's fourth cache line) are read
             // only after the box test; asking for them now overlaps that
             // miss with the box planes' instead of serialising the two.
-            _mm_prefetch(reinterpret_cast<const char*>(n.ref), _MM_HINT_T0);
-            typename S::V entry_v;
+            simd::prefetch(n.ref);
+            typename NodeTraits<Node>::V entry_v;
             int mask = intersect_node<kFused>(n, box_ray, tmin, cull, entry_v);
             if constexpr (kCount) {
                 ++counters->node_visits;
@@ -102,7 +99,7 @@ __attribute__((always_inline)) inline bool traverse_wide(const Node* nodes, cons
                     if (sp > base) {
                         const char* next = reinterpret_cast<const char*>(&nodes[stack[sp - 1].ref]);
                         for (size_t line = 0; line < sizeof(Node) / 64; ++line)
-                            _mm_prefetch(next + 64 * line, _MM_HINT_T0);
+                            simd::prefetch(next + 64 * line);
                     }
                     // Then test the leaf children (a hit ends the query).
                     for (int m = mask & ~interior; m; m &= m - 1) {
@@ -115,7 +112,7 @@ __attribute__((always_inline)) inline bool traverse_wide(const Node* nodes, cons
                     }
                 } else {
                     alignas(32) float entry[W];
-                    S::store(entry, entry_v);
+                    store(entry, entry_v);
                     if ((mask & (mask - 1)) == 0) {
                         // One child: no stack traffic.
                         const int c = __builtin_ctz(mask);
@@ -143,7 +140,7 @@ __attribute__((always_inline)) inline bool traverse_wide(const Node* nodes, cons
                     const char* line = next.count == 0 ? reinterpret_cast<const char*>(&nodes[next.ref])
                                                        : reinterpret_cast<const char*>(&packs[next.ref]);
                     for (size_t l = 0; l < (next.count == 0 ? sizeof(Node) : sizeof(TrianglePack4)); l += 64)
-                        _mm_prefetch(line + l, _MM_HINT_T0);
+                        simd::prefetch(line + l);
                     continue;
                 }
             }

@@ -12,6 +12,7 @@
 #include <random>
 #include <vector>
 
+#include "core/float_bounds.h"
 #include "core/simd.h"
 
 using namespace coherent;
@@ -187,4 +188,14 @@ TEST(Simd, LoadsStoresAndReductions) {
     alignas(32) uint32_t mi[8] = {};
     store(vbool8::from_bits(0x02), mi, vint8(42));
     for (int i = 0; i < 8; ++i) EXPECT_EQ(mi[i], i == 1 ? 42u : 0u);
+}
+
+TEST(FloatBounds, SharedConstantsKeepTheirValues) {
+    // The values every kernel used before they shared one definition.
+    EXPECT_EQ(bits(gamma_bound(3)), bits((3.0f * 0x1p-24f) / (1.0f - 3.0f * 0x1p-24f)));
+    EXPECT_EQ(bits(gamma_bound(7)), bits((7.0f * 0x1p-24f) / (1.0f - 7.0f * 0x1p-24f)));
+    EXPECT_EQ(bits(kFarScale), bits(1.0f + 2.0f * (3.0f * 0x1p-24f) / (1.0f - 3.0f * 0x1p-24f)));
+    EXPECT_EQ(kCullSlack, 0x1p-12f);
+    // gamma(n) bounds n roundings: (1 + eps)^n - 1 <= gamma(n) in exact arithmetic.
+    for (int n = 1; n <= 8; ++n) EXPECT_LE(std::pow(1.0L + 0x1p-24L, n) - 1.0L, (long double)gamma_bound(n)) << n;
 }
