@@ -16,7 +16,7 @@
 //  - a zero direction component gives an infinite reciprocal of the right
 //    sign. The only undefined product, 0 * inf, occurs for an origin exactly on
 //    a slab plane of a parallel ray; it yields NaN, and the min/max chains are
-//    written with the slab term first (max_ps/min_ps return the second
+//    written with the slab term first (min/max return the second
 //    operand when either is NaN), so that slab does not restrict the
 //    interval: conservative.
 //  - rays whose products all stay finite use an equally conservative fused
