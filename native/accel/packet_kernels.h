@@ -88,6 +88,18 @@ struct alignas(32) PacketRays {
     float cull_hi = kInf;  // >= every live lane's cull distance
 };
 
+// Rays in use: packet.size clamped to [0, kMaxPacketRays].
+inline int packet_size(const RayPacket& packet) {
+    return packet.size < 0 ? 0 : (packet.size > kMaxPacketRays ? kMaxPacketRays : packet.size);
+}
+
+// Fills `r` from the packet's active rays (packet_prepare.cpp); returns
+// false if none is valid. Invalid rays (NaN or infinite origin or direction,
+// zero direction, NaN bound, tmin > tmax) are never live, like the
+// single-ray kernel's valid_ray. `magnitude`: the largest absolute
+// coordinate of the scene's bounds.
+bool prepare(const RayPacket& packet, float magnitude, PacketRays& r);
+
 // Per-chunk box test of one node, in either of the single-ray kernel's two
 // conservative forms (traverse_single.cpp, BoxRay):
 //  - exact (Ize): (plane - o) * (1 / d), for every ray;
