@@ -309,7 +309,8 @@ inline int retest_exact_zeros(const TrianglePack4& p, int tri, PacketRays& r, in
 // record changed. Any hit: returns the lanes that hit (records untouched).
 // The triangle is lane `tri` of pack `p`.
 template <bool kAnyHit>
-__attribute__((always_inline)) inline int triangle_test(const TrianglePack4& p, int tri, PacketRays& r, int c, int mask) {
+__attribute__((always_inline)) inline int triangle_test(const TrianglePack4& p, int tri, PacketRays& r, int c,
+                                                        int mask) {
     const int o = c * kPacketLanes;
     vfloat8 px[3], py[3], pz[3];
     permuted_vertices(p, tri, r, c, px, py, pz);

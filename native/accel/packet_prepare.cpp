@@ -25,8 +25,9 @@ ChunkInput load_chunk(const RayPacket& packet, int c, int size) {
     const int in_use = size - o >= kPacketLanes ? kPacketLanes : size - o;
     const uint32_t active = packet.chunk_mask(c) & ((1u << in_use) - 1u);
     ChunkInput in;
-    in.o[0] = vfloat8::load(packet.ox + o), in.o[1] = vfloat8::load(packet.oy + o), in.o[2] = vfloat8::load(packet.oz + o);
-    in.d[0] = vfloat8::load(packet.dx + o), in.d[1] = vfloat8::load(packet.dy + o), in.d[2] = vfloat8::load(packet.dz + o);
+    const float* const src_o[3] = {packet.ox + o, packet.oy + o, packet.oz + o};
+    const float* const src_d[3] = {packet.dx + o, packet.dy + o, packet.dz + o};
+    for (int a = 0; a < 3; ++a) in.o[a] = vfloat8::load(src_o[a]), in.d[a] = vfloat8::load(src_d[a]);
     in.tmin = vfloat8::load(packet.tmin + o), in.tmax = vfloat8::load(packet.tmax + o);
     const vfloat8 zero = vfloat8::zero();
     vbool8 ok = (isfinite(in.o[0]) & isfinite(in.o[1])) & isfinite(in.o[2]);

@@ -61,7 +61,9 @@ TEST(Simd, Float8ArithmeticMatchesScalarBitForBit) {
         for (int i = 0; i < 8; ++i) {
             const float x = a[o + i], y = b[o + i], z = c[o + i];
             // NaN results: any NaN will do (the payload is not part of the contract).
-            auto same = [](float got, float want) { return std::isnan(want) ? std::isnan(got) : bits(got) == bits(want); };
+            auto same = [](float got, float want) {
+                return std::isnan(want) ? std::isnan(got) : bits(got) == bits(want);
+            };
             EXPECT_TRUE(same(sum.f[i], x + y)) << x << " + " << y;
             EXPECT_TRUE(same(diff.f[i], x - y)) << x << " - " << y;
             EXPECT_TRUE(same(prod.f[i], x * y)) << x << " * " << y;
@@ -140,7 +142,8 @@ TEST(Simd, MasksSelectAndCount) {
         for (int i = 0; i < 8; ++i) EXPECT_EQ(is[i], (m >> i) & 1 ? 7 : -3);
     }
     // A sign-bit mask selects like a comparison mask.
-    const vfloat8 signs = vfloat8::loadu(std::vector<float>{-0.0f, 0.0f, -1.0f, 2.0f, -1e-40f, 1e-40f, -5.0f, 5.0f}.data());
+    const float sign_values[8] = {-0.0f, 0.0f, -1.0f, 2.0f, -1e-40f, 1e-40f, -5.0f, 5.0f};
+    const vfloat8 signs = vfloat8::loadu(sign_values);
     EXPECT_EQ(movemask(signbit(signs)), 0x55);
     const Lanes8 s = lanes(select(signbit(signs), t, f));
     for (int i = 0; i < 8; ++i) EXPECT_EQ(s.f[i], i % 2 == 0 ? float(i) : -1.0f);
