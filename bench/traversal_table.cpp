@@ -180,7 +180,7 @@ int main(int argc, char** argv) {
         // Streams of 4096 rays (run_blocks hands each task whole streams).
         {
             StreamOptions so;
-            so.batch_size = 0;
+            so.slice_size = 0;
             so.parallel = false;
             const size_t streams = (n + 4095) / 4096;
             report("stream", best_seconds(o.runs, o.threads, std::string(set.name) + ": stream", [&] {

@@ -227,7 +227,7 @@ int main(int argc, char** argv) {
         // Streams over the 8-wide layout, batch-size sweep.
         for (size_t batch : opt.batches) {
             StreamOptions so;
-            so.batch_size = batch;
+            so.slice_size = batch;
             so.parallel = opt.threads > 1;
             StreamStats st;
             if (set.occlusion) occluded_stream(ref, rays.data(), n, occ.data(), &st, so);

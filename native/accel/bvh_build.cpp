@@ -257,6 +257,82 @@ struct RootBounds {
     BBox box, cbox;
 };
 
+// Per-triangle bounds and centroids, and the triangles to build over (refs).
+// Triangles with a non-finite vertex are left out: they could poison every
+// box above them with NaN.
+void triangle_bounds(const Vec3f* verts, size_t triangle_count, std::vector<BBox>& boxes,
+                     std::vector<Vec3f>& centroids, std::vector<uint32_t>& refs) {
+    boxes.resize(triangle_count);
+    centroids.resize(triangle_count);
+    std::vector<uint8_t> valid(triangle_count);
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, triangle_count, kGrainSize), [&](const tbb::blocked_range<size_t>& r) {
+        for (size_t i = r.begin(); i < r.end(); ++i) {
+            const Vec3f& a = verts[3 * i];
+            const Vec3f& b = verts[3 * i + 1];
+            const Vec3f& c = verts[3 * i + 2];
+            valid[i] = is_finite(a) && is_finite(b) && is_finite(c);
+            BBox box;
+            box.expand(a); box.expand(b); box.expand(c);
+            boxes[i] = box;
+            centroids[i] = box.center();
+        }
+    });
+    refs.clear();
+    refs.reserve(triangle_count);
+    for (size_t i = 0; i < triangle_count; ++i)
+        if (valid[i]) refs.push_back(static_cast<uint32_t>(i));
+}
+
+// Bounds and centroid bounds of the triangles in refs.
+RootBounds root_bounds(const std::vector<BBox>& boxes, const std::vector<Vec3f>& centroids,
+                       const std::vector<uint32_t>& refs) {
+    const uint32_t n = static_cast<uint32_t>(refs.size());
+    return tbb::parallel_reduce(
+        tbb::blocked_range<uint32_t>(0, n, kGrainSize), RootBounds{},
+        [&](const tbb::blocked_range<uint32_t>& r, RootBounds acc) {
+            for (uint32_t i = r.begin(); i < r.end(); ++i) {
+                acc.box.expand(boxes[refs[i]]);
+                acc.cbox.expand(centroids[refs[i]]);
+            }
+            return acc;
+        },
+        [](RootBounds a, const RootBounds& b) {
+            a.box.expand(b.box);
+            a.cbox.expand(b.cbox);
+            return a;
+        });
+}
+
+// The builder's tree renumbered depth-first with siblings adjacent: root at
+// 0, pairs at (1,2), (3,4), ...; counts depth and leaves into `stats`.
+void flatten(const std::vector<TempNode>& temp, std::vector<BvhNode>& nodes, BvhBuildStats& stats) {
+    nodes.reserve(temp.size());
+    nodes.emplace_back();
+    struct Item { uint32_t temp, final_index; int depth; };
+    std::vector<Item> stack{{0, 0, 1}};
+    while (!stack.empty()) {
+        const Item it = stack.back();
+        stack.pop_back();
+        const TempNode& t = temp[it.temp];
+        BvhNode& out = nodes[it.final_index];
+        out.box = t.box;
+        stats.depth = std::max(stats.depth, it.depth);
+        if (t.count > 0) {
+            out.index = t.begin;
+            out.count = t.count;
+            ++stats.leaves;
+        } else {
+            const uint32_t pair = static_cast<uint32_t>(nodes.size());
+            nodes[it.final_index].index = pair;  // `out` may dangle after emplace_back
+            nodes[it.final_index].count = 0;
+            nodes.emplace_back();
+            nodes.emplace_back();
+            stack.push_back({t.right, pair + 1, it.depth + 1});
+            stack.push_back({t.left, pair, it.depth + 1});
+        }
+    }
+}
+
 }  // namespace
 
 void Bvh::build(const Scene& scene, const BvhBuildOptions& opt) {
@@ -280,79 +356,21 @@ void Bvh::build_from(const Vec3f* verts, size_t triangle_count, const BvhBuildOp
     width_ = opt.width;
     stats_ = {};
 
-    // Per-triangle bounds and centroids. Triangles with a non-finite vertex
-    // are left out: they could poison every box above them with NaN.
-    std::vector<BBox> boxes(triangle_count);
-    std::vector<Vec3f> centroids(triangle_count);
-    std::vector<uint8_t> valid(triangle_count);
-    tbb::parallel_for(tbb::blocked_range<size_t>(0, triangle_count, kGrainSize), [&](const tbb::blocked_range<size_t>& r) {
-        for (size_t i = r.begin(); i < r.end(); ++i) {
-            const Vec3f& a = verts[3 * i];
-            const Vec3f& b = verts[3 * i + 1];
-            const Vec3f& c = verts[3 * i + 2];
-            valid[i] = is_finite(a) && is_finite(b) && is_finite(c);
-            BBox box;
-            box.expand(a); box.expand(b); box.expand(c);
-            boxes[i] = box;
-            centroids[i] = box.center();
-        }
-    });
+    std::vector<BBox> boxes;
+    std::vector<Vec3f> centroids;
     std::vector<uint32_t> refs;
-    refs.reserve(triangle_count);
-    for (size_t i = 0; i < triangle_count; ++i)
-        if (valid[i]) refs.push_back(static_cast<uint32_t>(i));
+    triangle_bounds(verts, triangle_count, boxes, centroids, refs);
     const uint32_t n = static_cast<uint32_t>(refs.size());
 
     if (n > 0 && opt.spatial_split_budget > 0.0f) {
         build_spatial_bvh(verts, refs, opt, nodes_, prim_order_, stats_);
         build_traversal_layout(verts, opt.optimal_collapse);
     } else if (n > 0) {
-        const RootBounds root = tbb::parallel_reduce(
-            tbb::blocked_range<uint32_t>(0, n, kGrainSize), RootBounds{},
-            [&](const tbb::blocked_range<uint32_t>& r, RootBounds acc) {
-                for (uint32_t i = r.begin(); i < r.end(); ++i) {
-                    acc.box.expand(boxes[refs[i]]);
-                    acc.cbox.expand(centroids[refs[i]]);
-                }
-                return acc;
-            },
-            [](RootBounds a, const RootBounds& b) {
-                a.box.expand(b.box);
-                a.cbox.expand(b.cbox);
-                return a;
-            });
-
+        const RootBounds root = root_bounds(boxes, centroids, refs);
         std::vector<TempNode> temp(2 * static_cast<size_t>(n) - 1);
         Builder builder(boxes.data(), centroids.data(), refs.data(), temp.data(), opt);
         builder.build(0, 0, n, root.box, root.cbox, 0);
-
-        // Renumber depth-first with siblings adjacent: root at 0, pairs at (1,2), (3,4), ...
-        nodes_.reserve(temp.size());
-        nodes_.emplace_back();
-        struct Item { uint32_t temp, final_index; int depth; };
-        std::vector<Item> stack{{0, 0, 1}};
-        while (!stack.empty()) {
-            const Item it = stack.back();
-            stack.pop_back();
-            const TempNode& t = temp[it.temp];
-            BvhNode& out = nodes_[it.final_index];
-            out.box = t.box;
-            stats_.depth = std::max(stats_.depth, it.depth);
-            if (t.count > 0) {
-                out.index = t.begin;
-                out.count = t.count;
-                ++stats_.leaves;
-            } else {
-                const uint32_t pair = static_cast<uint32_t>(nodes_.size());
-                nodes_[it.final_index].index = pair;  // `out` may dangle after emplace_back
-                nodes_[it.final_index].count = 0;
-                nodes_.emplace_back();
-                nodes_.emplace_back();
-                stack.push_back({t.right, pair + 1, it.depth + 1});
-                stack.push_back({t.left, pair, it.depth + 1});
-            }
-        }
-
+        flatten(temp, nodes_, stats_);
         prim_order_ = std::move(refs);
         stats_.references = prim_order_.size();
         build_traversal_layout(verts, opt.optimal_collapse);

@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "../core/float_bounds.h"
 #include "triangle.h"
 
 namespace coherent {
@@ -14,14 +15,62 @@ namespace {
 
 constexpr int kBins = 12;
 constexpr uint32_t kMaxLeaf = 4;
-// Ize's far-distance scaling (see traverse_single.cpp): 1 + 2 gamma(3).
-constexpr float kFarScale = 1.0f + 2.0f * (3.0f * 0x1p-24f) / (1.0f - 3.0f * 0x1p-24f);
 
 struct BuildRef {
     BBox box;
     Vec3f centroid;
     uint32_t tri;  // index into the build's triangle list
 };
+
+int widest_axis(const BBox& b) {
+    const Vec3f e = b.extent();
+    return e.x >= e.y && e.x >= e.z ? 0 : (e.y >= e.z ? 1 : 2);
+}
+
+// Binned SAH split of refs[begin, end) (bounds `box`, centroid bounds
+// `cbox`, more than kMaxLeaf refs) along the centroids' widest axis: sets
+// `axis` (left at -1 when the centroids do not spread) and the position
+// `pos` (refs with centroid < pos go left).
+void find_binned_split(const std::vector<BuildRef>& refs, uint32_t begin, uint32_t end, const BBox& box,
+                       const BBox& cbox, int& split_axis, float& split_pos) {
+    const uint32_t n = end - begin;
+    const int axis = widest_axis(cbox);
+    const Vec3f e = cbox.extent();
+    if (!(e[axis] > 0.0f)) return;
+    BBox bin_box[kBins];
+    uint32_t bin_count[kBins] = {};
+    const float scale = float(kBins) / e[axis];
+    auto bin_of = [&](const BuildRef& r) {
+        return std::min(kBins - 1, int((r.centroid[axis] - cbox.lo[axis]) * scale));
+    };
+    for (uint32_t i = begin; i < end; ++i) {
+        const int b = bin_of(refs[i]);
+        bin_box[b].expand(refs[i].box);
+        ++bin_count[b];
+    }
+    float best = float(n) * box.half_area();  // cost of a leaf (with n > kMaxLeaf, split if any better)
+    BBox right_box[kBins];
+    uint32_t right_count[kBins] = {};
+    for (int b = kBins - 1; b > 0; --b) {
+        right_box[b] = b + 1 < kBins ? right_box[b + 1] : BBox{};
+        right_box[b].expand(bin_box[b]);
+        right_count[b] = (b + 1 < kBins ? right_count[b + 1] : 0) + bin_count[b];
+    }
+    BBox left;
+    uint32_t left_count = 0;
+    for (int b = 1; b < kBins; ++b) {
+        left.expand(bin_box[b - 1]);
+        left_count += bin_count[b - 1];
+        if (left_count == 0 || right_count[b] == 0) continue;
+        const float cost = box.half_area() * 0.125f + float(left_count) * left.half_area() +
+                           float(right_count[b]) * right_box[b].half_area();
+        if (cost < best || split_axis < 0) {
+            best = cost;
+            split_axis = axis;
+            split_pos = cbox.lo[axis] + float(b) / scale;
+        }
+    }
+}
 
 }  // namespace
 
@@ -73,45 +122,8 @@ void MotionBvh::build(const std::vector<Vec3f>& open, const std::vector<Vec3f>& 
         // Binned SAH over the centroid bounds' widest axis.
         int split_axis = -1;
         float split_pos = 0.0f;
-        if (n > kMaxLeaf && task.depth < kMedianDepth) {
-            const Vec3f e = cbox.extent();
-            const int axis = e.x >= e.y && e.x >= e.z ? 0 : (e.y >= e.z ? 1 : 2);
-            if (e[axis] > 0.0f) {
-                BBox bin_box[kBins];
-                uint32_t bin_count[kBins] = {};
-                const float scale = float(kBins) / e[axis];
-                auto bin_of = [&](const BuildRef& r) {
-                    return std::min(kBins - 1, int((r.centroid[axis] - cbox.lo[axis]) * scale));
-                };
-                for (uint32_t i = task.begin; i < task.end; ++i) {
-                    const int b = bin_of(refs[i]);
-                    bin_box[b].expand(refs[i].box);
-                    ++bin_count[b];
-                }
-                float best = float(n) * box.half_area();  // cost of a leaf (with n > kMaxLeaf, split if any better)
-                BBox right_box[kBins];
-                uint32_t right_count[kBins] = {};
-                for (int b = kBins - 1; b > 0; --b) {
-                    right_box[b] = b + 1 < kBins ? right_box[b + 1] : BBox{};
-                    right_box[b].expand(bin_box[b]);
-                    right_count[b] = (b + 1 < kBins ? right_count[b + 1] : 0) + bin_count[b];
-                }
-                BBox left;
-                uint32_t left_count = 0;
-                for (int b = 1; b < kBins; ++b) {
-                    left.expand(bin_box[b - 1]);
-                    left_count += bin_count[b - 1];
-                    if (left_count == 0 || right_count[b] == 0) continue;
-                    const float cost = box.half_area() * 0.125f + float(left_count) * left.half_area() +
-                                       float(right_count[b]) * right_box[b].half_area();
-                    if (cost < best || split_axis < 0) {
-                        best = cost;
-                        split_axis = axis;
-                        split_pos = cbox.lo[axis] + float(b) / scale;
-                    }
-                }
-            }
-        }
+        if (n > kMaxLeaf && task.depth < kMedianDepth)
+            find_binned_split(refs, task.begin, task.end, box, cbox, split_axis, split_pos);
         uint32_t mid = task.begin;
         if (split_axis >= 0) {
             mid = uint32_t(std::partition(refs.begin() + task.begin, refs.begin() + task.end,
@@ -121,8 +133,7 @@ void MotionBvh::build(const std::vector<Vec3f>& open, const std::vector<Vec3f>& 
         if (split_axis < 0 || mid == task.begin || mid == task.end) {
             if (n > kMaxLeaf) {  // deep, or all centroids equal: split at the median
                 mid = task.begin + n / 2;
-                const Vec3f e = cbox.extent();
-                const int axis = e.x >= e.y && e.x >= e.z ? 0 : (e.y >= e.z ? 1 : 2);
+                const int axis = widest_axis(cbox);
                 std::nth_element(refs.begin() + task.begin, refs.begin() + mid, refs.begin() + task.end,
                                  [&](const BuildRef& a, const BuildRef& b) { return a.centroid[axis] < b.centroid[axis]; });
             } else {

@@ -12,12 +12,12 @@
 // double-precision recomputation), as traverse_single.cpp does.
 #pragma once
 
-#include <immintrin.h>
-
 #include <cmath>
 #include <cstdint>
 
 #include "../core/bbox.h"
+#include "../core/float_bounds.h"
+#include "../core/simd.h"
 #include "bvh.h"
 #include "bvh_layout.h"
 #include "ray_packet.h"
@@ -25,27 +25,20 @@
 
 namespace coherent::packet {
 
+using simd::vbool8;
+using simd::vfloat4;
+using simd::vfloat8;
+using simd::vint8;
+
 constexpr int kMaxChunks = kMaxPacketRays / kPacketLanes;
 
-// gamma(n) = n eps / (1 - n eps), eps = 2^-24 (pbrt-v3, section 3.9); the
-// same far-distance scaling as the single-ray kernel (traverse_single.cpp).
-constexpr float gamma_bound(int n) {
-    constexpr float eps = 0.5f * 1.1920928955078125e-07f;
-    return (n * eps) / (1.0f - n * eps);
-}
-constexpr float kFarScale = 1.0f + 2.0f * gamma_bound(3);
-// The single-ray kernel's relative cull slack (see kCullSlack there): boxes
-// are culled against best t * (1 + 2^-12), so that every triangle whose
-// computed t ties with the best is tested and ties go to the lowest index
-// whatever the visiting order.
-constexpr float kCullSlack = 0x1p-12f;
-
-inline __m256 cull_distance(__m256 t) {
-    const __m256 abs_t = _mm256_andnot_ps(_mm256_set1_ps(-0.0f), t);
-    const __m256 slack = _mm256_add_ps(t, _mm256_mul_ps(abs_t, _mm256_set1_ps(kCullSlack)));
+// cull_distance of wide_kernel.h on eight lanes (kCullSlack: float_bounds.h).
+inline vfloat8 cull_distance(vfloat8 t) {
+    const vfloat8 abs_t = abs(t);
+    const vfloat8 slack = t + abs_t * vfloat8(kCullSlack);
     // Non-finite t (an infinite tmax) stays as it is: inf + inf * slack would
     // be fine, but -inf + inf is NaN.
-    return _mm256_blendv_ps(slack, t, _mm256_cmp_ps(abs_t, _mm256_set1_ps(kInf), _CMP_EQ_OQ));
+    return select(abs_t == vfloat8(kInf), t, slack);
 }
 
 // A packet's rays, prepared for traversal: lane i of chunk c is array index
@@ -89,11 +82,23 @@ struct alignas(32) PacketRays {
     bool uniform_signs = false;
     int near_hi[3] = {0, 0, 0};
     bool interval = false;
-    __m128 o_lo, o_hi, inv_lo, inv_hi;  // per axis (x, y, z, unused)
+    vfloat4 o_lo, o_hi, inv_lo, inv_hi;  // per axis (x, y, z, unused)
     float axis_o_lo[3], axis_o_hi[3], axis_inv_lo[3], axis_inv_hi[3];  // the same, as floats
     float tmin_lo = 0.0f;
     float cull_hi = kInf;  // >= every live lane's cull distance
 };
+
+// Rays in use: packet.size clamped to [0, kMaxPacketRays].
+inline int packet_size(const RayPacket& packet) {
+    return packet.size < 0 ? 0 : (packet.size > kMaxPacketRays ? kMaxPacketRays : packet.size);
+}
+
+// Fills `r` from the packet's active rays (packet_prepare.cpp); returns
+// false if none is valid. Invalid rays (NaN or infinite origin or direction,
+// zero direction, NaN bound, tmin > tmax) are never live, like the
+// single-ray kernel's valid_ray. `magnitude`: the largest absolute
+// coordinate of the scene's bounds.
+bool prepare(const RayPacket& packet, float magnitude, PacketRays& r);
 
 // Per-chunk box test of one node, in either of the single-ray kernel's two
 // conservative forms (traverse_single.cpp, BoxRay):
@@ -108,45 +113,45 @@ struct alignas(32) PacketRays {
 template <bool kUniform, bool kFused>
 __attribute__((always_inline)) inline int box_test(const BBox& box, const PacketRays& r, int c) {
     const int o = c * kPacketLanes;
-    const __m256 ix = _mm256_load_ps(r.ix + o), iy = _mm256_load_ps(r.iy + o), iz = _mm256_load_ps(r.iz + o);
-    __m256 nx, ny, nz, fx, fy, fz;
+    const vfloat8 ix = vfloat8::load(r.ix + o), iy = vfloat8::load(r.iy + o), iz = vfloat8::load(r.iz + o);
+    vfloat8 nx, ny, nz, fx, fy, fz;
     if constexpr (kUniform) {
-        nx = _mm256_set1_ps(r.near_hi[0] ? box.hi.x : box.lo.x);
-        ny = _mm256_set1_ps(r.near_hi[1] ? box.hi.y : box.lo.y);
-        nz = _mm256_set1_ps(r.near_hi[2] ? box.hi.z : box.lo.z);
-        fx = _mm256_set1_ps(r.near_hi[0] ? box.lo.x : box.hi.x);
-        fy = _mm256_set1_ps(r.near_hi[1] ? box.lo.y : box.hi.y);
-        fz = _mm256_set1_ps(r.near_hi[2] ? box.lo.z : box.hi.z);
+        nx = r.near_hi[0] ? box.hi.x : box.lo.x;
+        ny = r.near_hi[1] ? box.hi.y : box.lo.y;
+        nz = r.near_hi[2] ? box.hi.z : box.lo.z;
+        fx = r.near_hi[0] ? box.lo.x : box.hi.x;
+        fy = r.near_hi[1] ? box.lo.y : box.hi.y;
+        fz = r.near_hi[2] ? box.lo.z : box.hi.z;
     } else {
         // The near plane is hi where 1/d has its sign bit set (as the
         // single-ray kernel's signbit choice: -0 counts as negative).
-        const __m256 lx = _mm256_set1_ps(box.lo.x), hx = _mm256_set1_ps(box.hi.x);
-        const __m256 ly = _mm256_set1_ps(box.lo.y), hy = _mm256_set1_ps(box.hi.y);
-        const __m256 lz = _mm256_set1_ps(box.lo.z), hz = _mm256_set1_ps(box.hi.z);
-        nx = _mm256_blendv_ps(lx, hx, ix); fx = _mm256_blendv_ps(hx, lx, ix);
-        ny = _mm256_blendv_ps(ly, hy, iy); fy = _mm256_blendv_ps(hy, ly, iy);
-        nz = _mm256_blendv_ps(lz, hz, iz); fz = _mm256_blendv_ps(hz, lz, iz);
+        const vfloat8 lx = box.lo.x, hx = box.hi.x;
+        const vfloat8 ly = box.lo.y, hy = box.hi.y;
+        const vfloat8 lz = box.lo.z, hz = box.hi.z;
+        nx = select(signbit(ix), hx, lx); fx = select(signbit(ix), lx, hx);
+        ny = select(signbit(iy), hy, ly); fy = select(signbit(iy), ly, hy);
+        nz = select(signbit(iz), hz, lz); fz = select(signbit(iz), lz, hz);
     }
-    __m256 tnx, tny, tnz, tfx, tfy, tfz;
+    vfloat8 tnx, tny, tnz, tfx, tfy, tfz;
     if constexpr (kFused) {
-        tnx = _mm256_fmsub_ps(nx, ix, _mm256_load_ps(r.chx + o));
-        tny = _mm256_fmsub_ps(ny, iy, _mm256_load_ps(r.chy + o));
-        tnz = _mm256_fmsub_ps(nz, iz, _mm256_load_ps(r.chz + o));
-        tfx = _mm256_fmsub_ps(fx, ix, _mm256_load_ps(r.clx + o));
-        tfy = _mm256_fmsub_ps(fy, iy, _mm256_load_ps(r.cly + o));
-        tfz = _mm256_fmsub_ps(fz, iz, _mm256_load_ps(r.clz + o));
+        tnx = fmsub(nx, ix, vfloat8::load(r.chx + o));
+        tny = fmsub(ny, iy, vfloat8::load(r.chy + o));
+        tnz = fmsub(nz, iz, vfloat8::load(r.chz + o));
+        tfx = fmsub(fx, ix, vfloat8::load(r.clx + o));
+        tfy = fmsub(fy, iy, vfloat8::load(r.cly + o));
+        tfz = fmsub(fz, iz, vfloat8::load(r.clz + o));
     } else {
-        const __m256 ox = _mm256_load_ps(r.ox + o), oy = _mm256_load_ps(r.oy + o), oz = _mm256_load_ps(r.oz + o);
-        tnx = _mm256_mul_ps(_mm256_sub_ps(nx, ox), ix);
-        tny = _mm256_mul_ps(_mm256_sub_ps(ny, oy), iy);
-        tnz = _mm256_mul_ps(_mm256_sub_ps(nz, oz), iz);
-        tfx = _mm256_mul_ps(_mm256_sub_ps(fx, ox), ix);
-        tfy = _mm256_mul_ps(_mm256_sub_ps(fy, oy), iy);
-        tfz = _mm256_mul_ps(_mm256_sub_ps(fz, oz), iz);
+        const vfloat8 ox = vfloat8::load(r.ox + o), oy = vfloat8::load(r.oy + o), oz = vfloat8::load(r.oz + o);
+        tnx = (nx - ox) * ix;
+        tny = (ny - oy) * iy;
+        tnz = (nz - oz) * iz;
+        tfx = (fx - ox) * ix;
+        tfy = (fy - oy) * iy;
+        tfz = (fz - oz) * iz;
     }
-    const __m256 tnear = _mm256_max_ps(tnz, _mm256_max_ps(tny, _mm256_max_ps(tnx, _mm256_load_ps(r.tmin + o))));
-    const __m256 tfar = _mm256_min_ps(tfz, _mm256_min_ps(tfy, _mm256_min_ps(tfx, _mm256_load_ps(r.cull + o))));
-    return _mm256_movemask_ps(_mm256_cmp_ps(tnear, _mm256_mul_ps(tfar, _mm256_set1_ps(kFarScale)), _CMP_LE_OQ));
+    const vfloat8 tnear = max(tnz, max(tny, max(tnx, vfloat8::load(r.tmin + o))));
+    const vfloat8 tfar = min(tfz, min(tfy, min(tfx, vfloat8::load(r.cull + o))));
+    return movemask(tnear <= tfar * vfloat8(kFarScale));
 }
 
 // Interval-arithmetic test of the whole packet against a box (valid only
@@ -160,26 +165,21 @@ __attribute__((always_inline)) inline int box_test(const BBox& box, const Packet
 // ray enters in exact arithmetic. NaN (never expected: all terms finite)
 // compares false and culls nothing.
 __attribute__((always_inline)) inline bool interval_misses(const BBox& box, const PacketRays& r) {
-    const __m128 lo = _mm_setr_ps(box.lo.x, box.lo.y, box.lo.z, 0.0f);
-    const __m128 hi = _mm_setr_ps(box.hi.x, box.hi.y, box.hi.z, 0.0f);
+    const vfloat4 lo(box.lo.x, box.lo.y, box.lo.z, 0.0f);
+    const vfloat4 hi(box.hi.x, box.hi.y, box.hi.z, 0.0f);
     // near/far planes per axis: precomputed sign choice as a blend mask.
-    const __m128 sel = _mm_castsi128_ps(_mm_setr_epi32(r.near_hi[0] ? -1 : 0, r.near_hi[1] ? -1 : 0,
-                                                       r.near_hi[2] ? -1 : 0, 0));
-    const __m128 near_plane = _mm_blendv_ps(lo, hi, sel);
-    const __m128 far_plane = _mm_blendv_ps(hi, lo, sel);
+    const simd::vbool4 near_is_hi(r.near_hi[0], r.near_hi[1], r.near_hi[2], false);
+    const vfloat4 near_plane = select(near_is_hi, hi, lo);
+    const vfloat4 far_plane = select(near_is_hi, lo, hi);
     // Differences (plane - o) as intervals [plane - o_hi, plane - o_lo].
-    const __m128 n_lo = _mm_sub_ps(near_plane, r.o_hi), n_hi = _mm_sub_ps(near_plane, r.o_lo);
-    const __m128 f_lo = _mm_sub_ps(far_plane, r.o_hi), f_hi = _mm_sub_ps(far_plane, r.o_lo);
+    const vfloat4 n_lo = near_plane - r.o_hi, n_hi = near_plane - r.o_lo;
+    const vfloat4 f_lo = far_plane - r.o_hi, f_hi = far_plane - r.o_lo;
     // Interval products: min / max over the four corners.
-    const __m128 a = _mm_mul_ps(n_lo, r.inv_lo), b = _mm_mul_ps(n_lo, r.inv_hi);
-    const __m128 c = _mm_mul_ps(n_hi, r.inv_lo), d = _mm_mul_ps(n_hi, r.inv_hi);
-    const __m128 near_min = _mm_min_ps(_mm_min_ps(a, b), _mm_min_ps(c, d));
-    const __m128 e = _mm_mul_ps(f_lo, r.inv_lo), f = _mm_mul_ps(f_lo, r.inv_hi);
-    const __m128 g = _mm_mul_ps(f_hi, r.inv_lo), h = _mm_mul_ps(f_hi, r.inv_hi);
-    const __m128 far_max = _mm_max_ps(_mm_max_ps(e, f), _mm_max_ps(g, h));
+    const vfloat4 near_min = min(min(n_lo * r.inv_lo, n_lo * r.inv_hi), min(n_hi * r.inv_lo, n_hi * r.inv_hi));
+    const vfloat4 far_max = max(max(f_lo * r.inv_lo, f_lo * r.inv_hi), max(f_hi * r.inv_lo, f_hi * r.inv_hi));
     alignas(16) float nm[4], fm[4];
-    _mm_store_ps(nm, near_min);
-    _mm_store_ps(fm, far_max);
+    store(nm, near_min);
+    store(fm, far_max);
     float tnear = std::max(r.tmin_lo, std::max(nm[0], std::max(nm[1], nm[2])));
     float tfar = std::min(r.cull_hi, std::min(fm[0], std::min(fm[1], fm[2])));
     constexpr float kMargin = 4.0f * gamma_bound(3);
@@ -194,133 +194,94 @@ __attribute__((always_inline)) inline bool interval_misses(const BBox& box, cons
 // conservativeness; empty slots (infinite planes) come out either way and
 // are skipped by the caller.
 __attribute__((always_inline)) inline int interval_children(const WideNode8& n, const PacketRays& r) {
-    __m256 tnear = _mm256_set1_ps(r.tmin_lo), tfar = _mm256_set1_ps(r.cull_hi);
+    vfloat8 tnear = r.tmin_lo, tfar = r.cull_hi;
     for (int a = 0; a < 3; ++a) {
-        const __m256 near_plane = _mm256_load_ps(r.near_hi[a] ? n.hi[a] : n.lo[a]);
-        const __m256 far_plane = _mm256_load_ps(r.near_hi[a] ? n.lo[a] : n.hi[a]);
-        const __m256 olo = _mm256_set1_ps(r.axis_o_lo[a]), ohi = _mm256_set1_ps(r.axis_o_hi[a]);
-        const __m256 ilo = _mm256_set1_ps(r.axis_inv_lo[a]), ihi = _mm256_set1_ps(r.axis_inv_hi[a]);
-        const __m256 n_lo = _mm256_sub_ps(near_plane, ohi), n_hi = _mm256_sub_ps(near_plane, olo);
-        const __m256 f_lo = _mm256_sub_ps(far_plane, ohi), f_hi = _mm256_sub_ps(far_plane, olo);
-        const __m256 near_min =
-            _mm256_min_ps(_mm256_min_ps(_mm256_mul_ps(n_lo, ilo), _mm256_mul_ps(n_lo, ihi)),
-                          _mm256_min_ps(_mm256_mul_ps(n_hi, ilo), _mm256_mul_ps(n_hi, ihi)));
-        const __m256 far_max =
-            _mm256_max_ps(_mm256_max_ps(_mm256_mul_ps(f_lo, ilo), _mm256_mul_ps(f_lo, ihi)),
-                          _mm256_max_ps(_mm256_mul_ps(f_hi, ilo), _mm256_mul_ps(f_hi, ihi)));
-        tnear = _mm256_max_ps(near_min, tnear);
-        tfar = _mm256_min_ps(far_max, tfar);
+        const vfloat8 near_plane = vfloat8::load(r.near_hi[a] ? n.hi[a] : n.lo[a]);
+        const vfloat8 far_plane = vfloat8::load(r.near_hi[a] ? n.lo[a] : n.hi[a]);
+        const vfloat8 olo = r.axis_o_lo[a], ohi = r.axis_o_hi[a];
+        const vfloat8 ilo = r.axis_inv_lo[a], ihi = r.axis_inv_hi[a];
+        const vfloat8 n_lo = near_plane - ohi, n_hi = near_plane - olo;
+        const vfloat8 f_lo = far_plane - ohi, f_hi = far_plane - olo;
+        const vfloat8 near_min = min(min(n_lo * ilo, n_lo * ihi), min(n_hi * ilo, n_hi * ihi));
+        const vfloat8 far_max = max(max(f_lo * ilo, f_lo * ihi), max(f_hi * ilo, f_hi * ihi));
+        tnear = max(near_min, tnear);
+        tfar = min(far_max, tfar);
     }
-    const __m256 abs_mask = _mm256_castsi256_ps(_mm256_set1_epi32(0x7fffffff));
-    const __m256 margin = _mm256_set1_ps(4.0f * gamma_bound(3)), tiny = _mm256_set1_ps(0x1p-126f);
-    tnear = _mm256_sub_ps(_mm256_sub_ps(tnear, _mm256_mul_ps(_mm256_and_ps(tnear, abs_mask), margin)), tiny);
-    tfar = _mm256_add_ps(_mm256_add_ps(tfar, _mm256_mul_ps(_mm256_and_ps(tfar, abs_mask), margin)), tiny);
-    return ~_mm256_movemask_ps(_mm256_cmp_ps(tnear, tfar, _CMP_GT_OQ)) & 0xff;
+    const vfloat8 margin = 4.0f * gamma_bound(3), tiny = 0x1p-126f;
+    tnear = (tnear - abs(tnear) * margin) - tiny;
+    tfar = (tfar + abs(tfar) * margin) + tiny;
+    return ~movemask(tnear > tfar) & 0xff;
 }
 
-// One triangle against the `mask` lanes of chunk c; the watertight test of
-// triangle.h per lane. Closest hit (kAnyHit false): offers each hit to the
-// lane's record with the single-ray tie rule and returns the lanes whose
-// record changed. Any hit: returns the lanes that hit (records untouched).
-// The triangle is lane `tri` of pack `p`.
-template <bool kAnyHit>
-__attribute__((always_inline)) inline int triangle_test(const TrianglePack4& p, int tri, PacketRays& r, int c, int mask) {
-    const uint32_t prim = p.prim[tri];
+// Vertex k of triangle `tri` of `p` minus chunk c's origins, in each lane's
+// permuted axes (triangle.h's kx, ky, kz), before the shear.
+__attribute__((always_inline)) inline void permuted_vertices(const TrianglePack4& p, int tri, const PacketRays& r,
+                                                             int c, vfloat8 px[3], vfloat8 py[3], vfloat8 pz[3]) {
     const int o = c * kPacketLanes;
-    const __m256 okx = _mm256_load_ps(r.okx + o), oky = _mm256_load_ps(r.oky + o), okz = _mm256_load_ps(r.okz + o);
-    const __m256 sx = _mm256_load_ps(r.sx + o), sy = _mm256_load_ps(r.sy + o);
-    __m256 px[3], py[3], pz[3];  // vertex - origin in the permuted axes, before the shear
+    const vfloat8 okx = vfloat8::load(r.okx + o), oky = vfloat8::load(r.oky + o), okz = vfloat8::load(r.okz + o);
     const int perm = r.perm[c];
     if (perm >= 0) {
         // One permutation for the chunk: the permuted coordinates are plain broadcasts.
         const int kx = perm & 3, ky = (perm >> 2) & 3, kz = perm >> 4;
         for (int k = 0; k < 3; ++k) {
-            px[k] = _mm256_sub_ps(_mm256_set1_ps(p.v[k][kx][tri]), okx);
-            py[k] = _mm256_sub_ps(_mm256_set1_ps(p.v[k][ky][tri]), oky);
-            pz[k] = _mm256_sub_ps(_mm256_set1_ps(p.v[k][kz][tri]), okz);
+            px[k] = vfloat8(p.v[k][kx][tri]) - okx;
+            py[k] = vfloat8(p.v[k][ky][tri]) - oky;
+            pz[k] = vfloat8(p.v[k][kz][tri]) - okz;
         }
     } else {
         // Per-lane permutation: pick each lane's axis out of (x, y, z) with an
         // in-lane variable permute (the same float as the broadcast above).
-        const __m256i kx = _mm256_load_si256(reinterpret_cast<const __m256i*>(r.kx + o));
-        const __m256i ky = _mm256_load_si256(reinterpret_cast<const __m256i*>(r.ky + o));
-        const __m256i kz = _mm256_load_si256(reinterpret_cast<const __m256i*>(r.kz + o));
+        const vint8 kx = vint8::load(r.kx + o), ky = vint8::load(r.ky + o), kz = vint8::load(r.kz + o);
         for (int k = 0; k < 3; ++k) {
-            const __m128 v4 = _mm_setr_ps(p.v[k][0][tri], p.v[k][1][tri], p.v[k][2][tri], 0.0f);
-            const __m256 v8 = _mm256_set_m128(v4, v4);
-            px[k] = _mm256_sub_ps(_mm256_permutevar_ps(v8, kx), okx);
-            py[k] = _mm256_sub_ps(_mm256_permutevar_ps(v8, ky), oky);
-            pz[k] = _mm256_sub_ps(_mm256_permutevar_ps(v8, kz), okz);
+            const vfloat4 v4(p.v[k][0][tri], p.v[k][1][tri], p.v[k][2][tri], 0.0f);
+            const vfloat8 v8(v4, v4);
+            px[k] = permute_in_lanes(v8, kx) - okx;
+            py[k] = permute_in_lanes(v8, ky) - oky;
+            pz[k] = permute_in_lanes(v8, kz) - okz;
         }
     }
-    // Shear: x = a[kx] - sx * a[kz] (multiply, then subtract: no contraction).
-    const __m256 ax = _mm256_sub_ps(px[0], _mm256_mul_ps(sx, pz[0]));
-    const __m256 ay = _mm256_sub_ps(py[0], _mm256_mul_ps(sy, pz[0]));
-    const __m256 bx = _mm256_sub_ps(px[1], _mm256_mul_ps(sx, pz[1]));
-    const __m256 by = _mm256_sub_ps(py[1], _mm256_mul_ps(sy, pz[1]));
-    const __m256 cx = _mm256_sub_ps(px[2], _mm256_mul_ps(sx, pz[2]));
-    const __m256 cy = _mm256_sub_ps(py[2], _mm256_mul_ps(sy, pz[2]));
-    const __m256 u = _mm256_sub_ps(_mm256_mul_ps(cx, by), _mm256_mul_ps(cy, bx));
-    const __m256 v = _mm256_sub_ps(_mm256_mul_ps(ax, cy), _mm256_mul_ps(ay, cx));
-    const __m256 w = _mm256_sub_ps(_mm256_mul_ps(bx, ay), _mm256_mul_ps(by, ax));
+}
 
-    const __m256 zero = _mm256_setzero_ps();
-    const int exact_zero = _mm256_movemask_ps(_mm256_or_ps(
-                               _mm256_or_ps(_mm256_cmp_ps(u, zero, _CMP_EQ_OQ), _mm256_cmp_ps(v, zero, _CMP_EQ_OQ)),
-                               _mm256_cmp_ps(w, zero, _CMP_EQ_OQ))) &
-                           mask;
-    const __m256 neg = _mm256_or_ps(
-        _mm256_or_ps(_mm256_cmp_ps(u, zero, _CMP_LT_OQ), _mm256_cmp_ps(v, zero, _CMP_LT_OQ)),
-        _mm256_cmp_ps(w, zero, _CMP_LT_OQ));
-    const __m256 pos = _mm256_or_ps(
-        _mm256_or_ps(_mm256_cmp_ps(u, zero, _CMP_GT_OQ), _mm256_cmp_ps(v, zero, _CMP_GT_OQ)),
-        _mm256_cmp_ps(w, zero, _CMP_GT_OQ));
-    // Outside iff some edge function is negative and another positive.
-    const int inside = ~_mm256_movemask_ps(_mm256_and_ps(neg, pos)) & mask & ~exact_zero;
+// The second half of the watertight test for the `inside` lanes of chunk c
+// (edge functions u, v, w; pz: the permuted vertices' z before scaling):
+// t, the range test against (tmin, best t], then (closest hit) the offer to
+// each lane's record. Returns what triangle_test returns for those lanes.
+template <bool kAnyHit>
+__attribute__((always_inline)) inline int offer_hits(uint32_t prim, vfloat8 u, vfloat8 v, vfloat8 w,
+                                                     const vfloat8 pz[3], PacketRays& r, int c, int inside) {
+    const int o = c * kPacketLanes;
+    const vfloat8 sz = vfloat8::load(r.sz + o);
+    const vfloat8 det = (u + v) + w;
+    const vfloat8 tscaled = (u * (sz * pz[0]) + v * (sz * pz[1])) + w * (sz * pz[2]);
+    const vfloat8 rcp = vfloat8(1.0f) / det;
+    const vfloat8 t = tscaled * rcp;
+    const vfloat8 best_t = vfloat8::load(r.best_t + o);
+    const vbool8 in_range = ((det != vfloat8::zero()) & (t > vfloat8::load(r.tmin + o))) & (t <= best_t);
+    int hits = movemask(in_range) & inside;
+    if (!hits) return 0;
+    if constexpr (kAnyHit) return hits;
+    // Offer: closer, or as close with a lower triangle index.
+    const vint8 best_prim = vint8::load(r.best_prim + o);
+    const vint8 p = static_cast<int>(prim);
+    const vbool8 lower = andnot(min_u32(p, best_prim) == p, p == best_prim);
+    const vbool8 better = (t < best_t) | ((t == best_t) & lower);
+    hits &= movemask(better);
+    if (!hits) return 0;
+    const vbool8 s = vbool8::from_bits(hits);
+    store(r.best_t + o, select(s, t, best_t));
+    store(r.best_u + o, select(s, v * rcp, vfloat8::load(r.best_u + o)));
+    store(r.best_v + o, select(s, w * rcp, vfloat8::load(r.best_v + o)));
+    store(r.best_prim + o, select(s, p, best_prim));
+    return hits;
+}
 
+// Rare: lanes (`exact_zero`) where an edge function rounded to exactly 0; the
+// scalar test redoes them (in double) with the same per-ray constants.
+template <bool kAnyHit>
+inline int retest_exact_zeros(const TrianglePack4& p, int tri, PacketRays& r, int c, int exact_zero) {
+    const uint32_t prim = p.prim[tri];
+    const int o = c * kPacketLanes;
     int result = 0;
-    if (inside) {
-        const __m256 sz = _mm256_load_ps(r.sz + o);
-        const __m256 det = _mm256_add_ps(_mm256_add_ps(u, v), w);
-        const __m256 tscaled = _mm256_add_ps(
-            _mm256_add_ps(_mm256_mul_ps(u, _mm256_mul_ps(sz, pz[0])), _mm256_mul_ps(v, _mm256_mul_ps(sz, pz[1]))),
-            _mm256_mul_ps(w, _mm256_mul_ps(sz, pz[2])));
-        const __m256 rcp = _mm256_div_ps(_mm256_set1_ps(1.0f), det);
-        const __m256 t = _mm256_mul_ps(tscaled, rcp);
-        const __m256 best_t = _mm256_load_ps(r.best_t + o);
-        const __m256 in_range = _mm256_and_ps(
-            _mm256_and_ps(_mm256_cmp_ps(det, zero, _CMP_NEQ_UQ), _mm256_cmp_ps(t, _mm256_load_ps(r.tmin + o), _CMP_GT_OQ)),
-            _mm256_cmp_ps(t, best_t, _CMP_LE_OQ));
-        int hits = _mm256_movemask_ps(in_range) & inside;
-        if (hits) {
-            if constexpr (kAnyHit) {
-                result = hits;
-            } else {
-                // Offer: closer, or as close with a lower triangle index.
-                const __m256i best_prim = _mm256_load_si256(reinterpret_cast<const __m256i*>(r.best_prim + o));
-                const __m256i p = _mm256_set1_epi32(static_cast<int>(prim));
-                const __m256i lower = _mm256_andnot_si256(_mm256_cmpeq_epi32(p, best_prim),
-                                                          _mm256_cmpeq_epi32(_mm256_min_epu32(p, best_prim), p));
-                const __m256 better = _mm256_or_ps(_mm256_cmp_ps(t, best_t, _CMP_LT_OQ),
-                                                   _mm256_and_ps(_mm256_cmp_ps(t, best_t, _CMP_EQ_OQ),
-                                                                 _mm256_castsi256_ps(lower)));
-                hits &= _mm256_movemask_ps(better);
-                if (hits) {
-                    const __m256i lanes = _mm256_setr_epi32(1, 2, 4, 8, 16, 32, 64, 128);
-                    const __m256i sel = _mm256_cmpeq_epi32(_mm256_and_si256(_mm256_set1_epi32(hits), lanes), lanes);
-                    const __m256 s = _mm256_castsi256_ps(sel);
-                    _mm256_store_ps(r.best_t + o, _mm256_blendv_ps(best_t, t, s));
-                    _mm256_store_ps(r.best_u + o, _mm256_blendv_ps(_mm256_load_ps(r.best_u + o), _mm256_mul_ps(v, rcp), s));
-                    _mm256_store_ps(r.best_v + o, _mm256_blendv_ps(_mm256_load_ps(r.best_v + o), _mm256_mul_ps(w, rcp), s));
-                    _mm256_store_si256(reinterpret_cast<__m256i*>(r.best_prim + o),
-                                       _mm256_blendv_epi8(best_prim, p, sel));
-                    result = hits;
-                }
-            }
-        }
-    }
-    // Rare: an edge function rounded to exactly 0; the scalar test redoes it
-    // (in double) with the same per-ray constants.
     for (int z = exact_zero; z; z &= z - 1) {
         const int l = o + __builtin_ctz(z);
         WatertightRay wr;
@@ -339,6 +300,38 @@ __attribute__((always_inline)) inline int triangle_test(const TrianglePack4& p, 
             result |= 1 << (l - o);
         }
     }
+    return result;
+}
+
+// One triangle against the `mask` lanes of chunk c; the watertight test of
+// triangle.h per lane. Closest hit (kAnyHit false): offers each hit to the
+// lane's record with the single-ray tie rule and returns the lanes whose
+// record changed. Any hit: returns the lanes that hit (records untouched).
+// The triangle is lane `tri` of pack `p`.
+template <bool kAnyHit>
+__attribute__((always_inline)) inline int triangle_test(const TrianglePack4& p, int tri, PacketRays& r, int c,
+                                                        int mask) {
+    const int o = c * kPacketLanes;
+    vfloat8 px[3], py[3], pz[3];
+    permuted_vertices(p, tri, r, c, px, py, pz);
+    // Shear: x = a[kx] - sx * a[kz] (multiply, then subtract: no contraction).
+    const vfloat8 sx = vfloat8::load(r.sx + o), sy = vfloat8::load(r.sy + o);
+    const vfloat8 ax = px[0] - sx * pz[0], ay = py[0] - sy * pz[0];
+    const vfloat8 bx = px[1] - sx * pz[1], by = py[1] - sy * pz[1];
+    const vfloat8 cx = px[2] - sx * pz[2], cy = py[2] - sy * pz[2];
+    const vfloat8 u = cx * by - cy * bx;
+    const vfloat8 v = ax * cy - ay * cx;
+    const vfloat8 w = bx * ay - by * ax;
+
+    const vfloat8 zero = vfloat8::zero();
+    const int exact_zero = movemask(((u == zero) | (v == zero)) | (w == zero)) & mask;
+    const vbool8 neg = ((u < zero) | (v < zero)) | (w < zero);
+    const vbool8 pos = ((u > zero) | (v > zero)) | (w > zero);
+    // Outside iff some edge function is negative and another positive.
+    const int inside = ~movemask(neg & pos) & mask & ~exact_zero;
+
+    int result = inside ? offer_hits<kAnyHit>(p.prim[tri], u, v, w, pz, r, c, inside) : 0;
+    if (exact_zero) result |= retest_exact_zeros<kAnyHit>(p, tri, r, c, exact_zero);
     return result;
 }
 

@@ -1,6 +1,6 @@
 // Breadth-first ray streams (the "dynamic ray scheduling" of paper 003,
 // papers/INDEX.md, on the CPU): instead of one ray walking the tree, a whole
-// batch of rays enters the root together; each wide node tests every ray of
+// slice of rays enters the root together; each wide node tests every ray of
 // its queue against its children ("talk first, think later": one node's
 // boxes stay in cache while all its rays are tested) and appends each ray to
 // the queue of every child it enters; leaves intersect their whole queue. An
@@ -27,19 +27,19 @@ namespace coherent {
 class Bvh;
 
 struct StreamOptions {
-    // Rays traced together as one stream (one set of queues). The stream is
-    // cut into batches of this many consecutive rays; batches are the unit of
-    // parallel work, so each task owns its queues and no lock is taken.
-    // 0 means one batch of all the rays.
-    size_t batch_size = 4096;
-    // Trace batches on the TBB pool (the caller's arena); false: on the
+    // Rays traced together (one set of queues). The stream is cut into
+    // slices of this many consecutive rays; slices are the unit of parallel
+    // work, so each task owns its queues and no lock is taken. 0 means one
+    // slice of all the rays.
+    size_t slice_size = 4096;
+    // Trace slices on the TBB pool (the caller's arena); false: on the
     // calling thread only.
     bool parallel = true;
 };
 
 constexpr int kStreamMaxLevels = 64;
 
-// Work counters of stream traversal (summed over batches).
+// Work counters of stream traversal (summed over slices).
 //  - node_visits: (node, queue) visits, interior wide nodes and leaves;
 //  - ray_node_visits: queue entries processed at those visits (a ray tested
 //    against a node's children or a leaf's triangles): rays per node visit
@@ -52,7 +52,7 @@ constexpr int kStreamMaxLevels = 64;
 //    processed at depth d (root 0), clamped to the last level.
 struct StreamStats {
     uint64_t rays = 0;  // rays given (valid or not)
-    uint64_t batches = 0;
+    uint64_t slices = 0;
     uint64_t node_visits = 0;
     uint64_t ray_node_visits = 0;
     uint64_t culled = 0;
@@ -71,7 +71,7 @@ struct StreamStats {
         return l;
     }
     StreamStats& operator+=(const StreamStats& o) {
-        rays += o.rays; batches += o.batches; node_visits += o.node_visits; ray_node_visits += o.ray_node_visits;
+        rays += o.rays; slices += o.slices; node_visits += o.node_visits; ray_node_visits += o.ray_node_visits;
         culled += o.culled; box_tests += o.box_tests; triangle_tests += o.triangle_tests;
         max_queue = max_queue > o.max_queue ? max_queue : o.max_queue;
         for (int l = 0; l < kStreamMaxLevels; ++l) {

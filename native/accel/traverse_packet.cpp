@@ -45,7 +45,11 @@ namespace coherent {
 
 namespace {
 
+using packet::packet_size;
 using packet::PacketRays;
+using simd::vbool8;
+using simd::vfloat8;
+using simd::vint8;
 
 // One push per level of the binary tree (< 128 levels, see bvh_build.cpp).
 constexpr int kStackSize = 192;
@@ -56,213 +60,15 @@ struct LocalCounters {
     uint64_t box_lanes = 0, box_lanes_active = 0, triangle_lanes = 0, triangle_lanes_active = 0;
 };
 
-// Fills `r` from the packet's active rays; returns false if none is valid.
-// Invalid rays (NaN or infinite origin or direction, zero direction, NaN
-// bound, tmin > tmax) are never live, like the single-ray kernel's valid_ray.
-// `magnitude`: the largest absolute coordinate of the scene's bounds.
-bool prepare(const RayPacket& packet, float magnitude, PacketRays& r) {
-    const int size = packet.size < 0 ? 0 : (packet.size > kMaxPacketRays ? kMaxPacketRays : packet.size);
-    r.chunks = (size + kPacketLanes - 1) / kPacketLanes;
-    const __m256 inf = _mm256_set1_ps(kInf), abs_mask = _mm256_castsi256_ps(_mm256_set1_epi32(0x7fffffff));
-    auto finite = [&](__m256 x) { return _mm256_cmp_ps(_mm256_and_ps(x, abs_mask), inf, _CMP_LT_OQ); };
-    const __m256 zero = _mm256_setzero_ps(), one = _mm256_set1_ps(1.0f);
-    int any_neg = 0, any_pos = 0;  // per axis bits (1 = x, 2 = y, 4 = z) over live lanes
-    bool all_inv_finite = true;
-    int fused_ok = 1;
-    __m256 olo[3], ohi[3], ilo[3], ihi[3], tmin_lo = inf;
-    for (int a = 0; a < 3; ++a) olo[a] = ilo[a] = inf, ohi[a] = ihi[a] = _mm256_set1_ps(-kInf);
-    r.first_chunk = r.chunks;
-    for (int c = 0; c < r.chunks; ++c) {
-        const int o = c * kPacketLanes;
-        const int in_use = size - o >= kPacketLanes ? kPacketLanes : size - o;
-        const uint32_t active = packet.chunk_mask(c) & ((1u << in_use) - 1u);
-        // Lanes past `size` may hold anything (never read as rays): only
-        // the blends below let their bits through, as harmless constants.
-        const __m256 ox = _mm256_load_ps(packet.ox + o), oy = _mm256_load_ps(packet.oy + o),
-                     oz = _mm256_load_ps(packet.oz + o);
-        const __m256 dx = _mm256_load_ps(packet.dx + o), dy = _mm256_load_ps(packet.dy + o),
-                     dz = _mm256_load_ps(packet.dz + o);
-        const __m256 tmin = _mm256_load_ps(packet.tmin + o), tmax = _mm256_load_ps(packet.tmax + o);
-        __m256 ok = _mm256_and_ps(_mm256_and_ps(finite(ox), finite(oy)), finite(oz));
-        ok = _mm256_and_ps(ok, _mm256_and_ps(_mm256_and_ps(finite(dx), finite(dy)), finite(dz)));
-        const __m256 nonzero = _mm256_or_ps(
-            _mm256_or_ps(_mm256_cmp_ps(dx, zero, _CMP_NEQ_OQ), _mm256_cmp_ps(dy, zero, _CMP_NEQ_OQ)),
-            _mm256_cmp_ps(dz, zero, _CMP_NEQ_OQ));
-        ok = _mm256_and_ps(_mm256_and_ps(ok, nonzero), _mm256_cmp_ps(tmin, tmax, _CMP_LE_OQ));
-        const uint32_t live = active & static_cast<uint32_t>(_mm256_movemask_ps(ok));
-        r.live[c] = r.valid[c] = live;
-        if (live && r.first_chunk == r.chunks) r.first_chunk = c;
-
-        // Dead lanes get a ray that enters nothing (and no NaN, no denormal).
-        const __m256i lanes = _mm256_setr_epi32(1, 2, 4, 8, 16, 32, 64, 128);
-        const __m256 lm = _mm256_castsi256_ps(
-            _mm256_cmpeq_epi32(_mm256_and_si256(_mm256_set1_epi32(static_cast<int>(live)), lanes), lanes));
-        const __m256 ix = _mm256_blendv_ps(one, _mm256_div_ps(one, dx), lm);
-        const __m256 iy = _mm256_blendv_ps(one, _mm256_div_ps(one, dy), lm);
-        const __m256 iz = _mm256_blendv_ps(one, _mm256_div_ps(one, dz), lm);
-        _mm256_store_ps(r.ox + o, _mm256_blendv_ps(zero, ox, lm));
-        _mm256_store_ps(r.oy + o, _mm256_blendv_ps(zero, oy, lm));
-        _mm256_store_ps(r.oz + o, _mm256_blendv_ps(zero, oz, lm));
-        _mm256_store_ps(r.ix + o, ix);
-        _mm256_store_ps(r.iy + o, iy);
-        _mm256_store_ps(r.iz + o, iz);
-        // Fused-form constants, exactly as the single-ray kernel's BoxRay:
-        // |fl(o * inv) - o * inv| <= 2^-24 |fl(o * inv)| (1 + 2^-23); a margin
-        // of 2^-22 |e| + 2^-126 survives the rounding of the addition.
-        {
-            const __m256 org[3] = {_mm256_blendv_ps(zero, ox, lm), _mm256_blendv_ps(zero, oy, lm),
-                                   _mm256_blendv_ps(zero, oz, lm)};
-            const __m256 inv[3] = {ix, iy, iz};
-            float* ch[3] = {r.chx + o, r.chy + o, r.chz + o};
-            float* cl[3] = {r.clx + o, r.cly + o, r.clz + o};
-            for (int a = 0; a < 3; ++a) {
-                const __m256 e = _mm256_mul_ps(org[a], inv[a]);
-                const __m256 margin = _mm256_add_ps(_mm256_mul_ps(_mm256_and_ps(e, abs_mask), _mm256_set1_ps(0x1p-22f)),
-                                                    _mm256_set1_ps(0x1p-126f));
-                _mm256_store_ps(ch[a], _mm256_add_ps(e, margin));
-                _mm256_store_ps(cl[a], _mm256_sub_ps(e, margin));
-                // |1/d| * max(|o|, magnitude, 1) <= 2^100 (fails for an infinite 1/d).
-                const __m256 m = _mm256_max_ps(_mm256_max_ps(_mm256_and_ps(org[a], abs_mask), _mm256_set1_ps(magnitude)),
-                                               one);
-                const __m256 reach = _mm256_mul_ps(_mm256_and_ps(inv[a], abs_mask), m);
-                if ((_mm256_movemask_ps(_mm256_cmp_ps(reach, _mm256_set1_ps(0x1p100f), _CMP_LE_OQ)) & live) != live)
-                    fused_ok = 0;
-            }
-        }
-        _mm256_store_ps(r.tmin + o, _mm256_blendv_ps(zero, tmin, lm));
-        const __m256 best = _mm256_blendv_ps(_mm256_set1_ps(-1.0f), tmax, lm);
-        _mm256_store_ps(r.best_t + o, best);
-        _mm256_store_ps(r.cull + o, packet::cull_distance(best));
-        _mm256_store_ps(r.best_u + o, zero);
-        _mm256_store_ps(r.best_v + o, zero);
-        _mm256_store_si256(reinterpret_cast<__m256i*>(r.best_prim + o), _mm256_set1_epi32(-1));
-
-        // Watertight constants per lane: WatertightRay's constructor
-        // (triangle.h) in SIMD, the same comparisons and the same products,
-        // hence the same floats as the single-ray kernel. Dead lanes get
-        // d = +z (kx, ky, kz = 0, 1, 2, no shear).
-        {
-            const __m256 sdx = _mm256_blendv_ps(zero, dx, lm), sdy = _mm256_blendv_ps(zero, dy, lm),
-                         sdz = _mm256_blendv_ps(one, dz, lm);
-            const __m256 sox = _mm256_blendv_ps(zero, ox, lm), soy = _mm256_blendv_ps(zero, oy, lm),
-                         soz = _mm256_blendv_ps(zero, oz, lm);
-            const __m256 adx = _mm256_and_ps(sdx, abs_mask), ady = _mm256_and_ps(sdy, abs_mask),
-                         adz = _mm256_and_ps(sdz, abs_mask);
-            // max_dimension: ax > ay ? (ax > az ? 0 : 2) : (ay > az ? 1 : 2).
-            const __m256 xy = _mm256_cmp_ps(adx, ady, _CMP_GT_OQ);
-            const __m256 kz0 = _mm256_and_ps(xy, _mm256_cmp_ps(adx, adz, _CMP_GT_OQ));
-            const __m256 kz1 = _mm256_andnot_ps(xy, _mm256_cmp_ps(ady, adz, _CMP_GT_OQ));
-            auto pick = [&](__m256 x, __m256 y, __m256 z, __m256 is0, __m256 is1) {
-                return _mm256_blendv_ps(_mm256_blendv_ps(z, y, is1), x, is0);
-            };
-            // kx, ky before the swap: kz 0 -> (1, 2), 1 -> (2, 0), 2 -> (0, 1);
-            // swapped when d[kz] < 0.
-            const __m256 dkz = pick(sdx, sdy, sdz, kz0, kz1);
-            const __m256 swap = _mm256_cmp_ps(dkz, zero, _CMP_LT_OQ);
-            const __m256i i0 = _mm256_setzero_si256(), i1 = _mm256_set1_epi32(1), i2 = _mm256_set1_epi32(2);
-            auto ipick = [&](__m256i x, __m256i y, __m256i z, __m256 is0, __m256 is1) {
-                return _mm256_castps_si256(pick(_mm256_castsi256_ps(x), _mm256_castsi256_ps(y),
-                                                _mm256_castsi256_ps(z), is0, is1));
-            };
-            const __m256i kz = ipick(i0, i1, i2, kz0, kz1);
-            const __m256i kx0 = ipick(i1, i2, i0, kz0, kz1), ky0 = ipick(i2, i0, i1, kz0, kz1);
-            const __m256i kx = _mm256_castps_si256(
-                _mm256_blendv_ps(_mm256_castsi256_ps(kx0), _mm256_castsi256_ps(ky0), swap));
-            const __m256i ky = _mm256_castps_si256(
-                _mm256_blendv_ps(_mm256_castsi256_ps(ky0), _mm256_castsi256_ps(kx0), swap));
-            auto by_axis = [&](__m256 x, __m256 y, __m256 z, __m256i k) {
-                return pick(x, y, z, _mm256_castsi256_ps(_mm256_cmpeq_epi32(k, i0)),
-                            _mm256_castsi256_ps(_mm256_cmpeq_epi32(k, i1)));
-            };
-            const __m256 sz = by_axis(ix, iy, iz, kz);
-            _mm256_store_si256(reinterpret_cast<__m256i*>(r.kx + o), kx);
-            _mm256_store_si256(reinterpret_cast<__m256i*>(r.ky + o), ky);
-            _mm256_store_si256(reinterpret_cast<__m256i*>(r.kz + o), kz);
-            _mm256_store_ps(r.sz + o, sz);
-            _mm256_store_ps(r.sx + o, _mm256_mul_ps(by_axis(sdx, sdy, sdz, kx), sz));
-            _mm256_store_ps(r.sy + o, _mm256_mul_ps(by_axis(sdx, sdy, sdz, ky), sz));
-            _mm256_store_ps(r.okx + o, by_axis(sox, soy, soz, kx));
-            _mm256_store_ps(r.oky + o, by_axis(sox, soy, soz, ky));
-            _mm256_store_ps(r.okz + o, by_axis(sox, soy, soz, kz));
-            // One permutation for all live lanes?
-            const __m256i perm = _mm256_or_si256(kx, _mm256_or_si256(_mm256_slli_epi32(ky, 2), _mm256_slli_epi32(kz, 4)));
-            r.perm[c] = -1;
-            if (live) {
-                const int l0 = __builtin_ctz(live);
-                const int p0 = r.kx[o + l0] | r.ky[o + l0] << 2 | r.kz[o + l0] << 4;
-                const int same = _mm256_movemask_ps(_mm256_castsi256_ps(_mm256_cmpeq_epi32(perm, _mm256_set1_epi32(p0))));
-                if ((same & live) == live) r.perm[c] = p0;
-                if (r.first_chunk == c) r.first_dir = Vec3f(packet.dx[o + l0], packet.dy[o + l0], packet.dz[o + l0]);
-            }
-        }
-
-        // Octant and interval bounds over the live lanes.
-        const int neg_x = _mm256_movemask_ps(ix) & live, neg_y = _mm256_movemask_ps(iy) & live,
-                  neg_z = _mm256_movemask_ps(iz) & live;
-        any_neg |= (neg_x ? 1 : 0) | (neg_y ? 2 : 0) | (neg_z ? 4 : 0);
-        any_pos |= ((live & ~neg_x) ? 1 : 0) | ((live & ~neg_y) ? 2 : 0) | ((live & ~neg_z) ? 4 : 0);
-        const __m256 inv[3] = {ix, iy, iz}, org[3] = {ox, oy, oz};
-        for (int a = 0; a < 3; ++a) {
-            if ((_mm256_movemask_ps(finite(inv[a])) & live) != live) all_inv_finite = false;
-            olo[a] = _mm256_min_ps(olo[a], _mm256_blendv_ps(inf, org[a], lm));
-            ohi[a] = _mm256_max_ps(ohi[a], _mm256_blendv_ps(_mm256_set1_ps(-kInf), org[a], lm));
-            ilo[a] = _mm256_min_ps(ilo[a], _mm256_blendv_ps(inf, inv[a], lm));
-            ihi[a] = _mm256_max_ps(ihi[a], _mm256_blendv_ps(_mm256_set1_ps(-kInf), inv[a], lm));
-        }
-        tmin_lo = _mm256_min_ps(tmin_lo, _mm256_blendv_ps(inf, tmin, lm));
-    }
-    if (r.first_chunk == r.chunks) return false;
-
-    r.fused = fused_ok != 0;
-    r.uniform_signs = (any_neg & any_pos) == 0;
-    for (int a = 0; a < 3; ++a) r.near_hi[a] = (any_neg >> a) & 1;
-    r.interval = r.uniform_signs && all_inv_finite;
-    if (r.interval) {
-        auto hmin = [](__m256 x) {
-            alignas(32) float v[8];
-            _mm256_store_ps(v, x);
-            float m = v[0];
-            for (int i = 1; i < 8; ++i) m = std::min(m, v[i]);
-            return m;
-        };
-        auto hmax = [](__m256 x) {
-            alignas(32) float v[8];
-            _mm256_store_ps(v, x);
-            float m = v[0];
-            for (int i = 1; i < 8; ++i) m = std::max(m, v[i]);
-            return m;
-        };
-        r.o_lo = _mm_setr_ps(hmin(olo[0]), hmin(olo[1]), hmin(olo[2]), 0.0f);
-        r.o_hi = _mm_setr_ps(hmax(ohi[0]), hmax(ohi[1]), hmax(ohi[2]), 0.0f);
-        r.inv_lo = _mm_setr_ps(hmin(ilo[0]), hmin(ilo[1]), hmin(ilo[2]), 1.0f);
-        r.inv_hi = _mm_setr_ps(hmax(ihi[0]), hmax(ihi[1]), hmax(ihi[2]), 1.0f);
-        r.tmin_lo = hmin(tmin_lo);
-        for (int a = 0; a < 3; ++a) {
-            r.axis_o_lo[a] = hmin(olo[a]);
-            r.axis_o_hi[a] = hmax(ohi[a]);
-            r.axis_inv_lo[a] = hmin(ilo[a]);
-            r.axis_inv_hi[a] = hmax(ihi[a]);
-        }
-        r.cull_hi = kInf;
-    }
-    return true;
-}
-
 // The largest cull distance over live lanes (the interval test's far bound).
 float max_cull(const PacketRays& r) {
-    __m256 m = _mm256_set1_ps(-kInf);
-    const __m256i lanes = _mm256_setr_epi32(1, 2, 4, 8, 16, 32, 64, 128);
+    vfloat8 m = -kInf;
     for (int c = 0; c < r.chunks; ++c) {
         if (!r.live[c]) continue;
-        const __m256 lm = _mm256_castsi256_ps(
-            _mm256_cmpeq_epi32(_mm256_and_si256(_mm256_set1_epi32(static_cast<int>(r.live[c])), lanes), lanes));
-        m = _mm256_max_ps(m, _mm256_blendv_ps(_mm256_set1_ps(-kInf), _mm256_load_ps(r.cull + c * kPacketLanes), lm));
+        const vbool8 lm = vbool8::from_bits(static_cast<int>(r.live[c]));
+        m = max(m, select(lm, vfloat8::load(r.cull + c * kPacketLanes), vfloat8(-kInf)));
     }
-    alignas(32) float v[8];
-    _mm256_store_ps(v, m);
-    float out = v[0];
-    for (int i = 1; i < 8; ++i) out = std::max(out, v[i]);
-    return out;
+    return reduce_max(m);
 }
 
 // The trees a packet can walk (the Bvh's private arrays).
@@ -321,10 +127,7 @@ struct Walker {
 
     // Non-empty child slots of a wide node.
     static int used(const WideNode8& n) {
-        const __m256i refs = _mm256_load_si256(reinterpret_cast<const __m256i*>(n.ref));
-        return ~_mm256_movemask_ps(_mm256_castsi256_ps(
-                   _mm256_cmpeq_epi32(refs, _mm256_set1_epi32(static_cast<int>(kEmptyChild))))) &
-               0xff;
+        return ~movemask(vint8::load(n.ref) == vint8(static_cast<int32_t>(kEmptyChild))) & 0xff;
     }
 
     // Does the packet (chunks [f, l]) enter box `b`? Steps 1-4 of the file
@@ -367,18 +170,17 @@ struct Walker {
         const int i = f * kPacketLanes + __builtin_ctz(r.live[f]);
         const float inv[3] = {r.ix[i], r.iy[i], r.iz[i]};
         const float org[3] = {r.ox[i], r.oy[i], r.oz[i]};
-        __m256 tnear = _mm256_set1_ps(r.tmin[i]), tfar = _mm256_set1_ps(r.cull[i]);
+        vfloat8 tnear = r.tmin[i], tfar = r.cull[i];
         for (int a = 0; a < 3; ++a) {
             const bool neg = std::signbit(inv[a]);
-            const __m256 o = _mm256_set1_ps(org[a]), iv = _mm256_set1_ps(inv[a]);
-            const __m256 tn = _mm256_mul_ps(_mm256_sub_ps(_mm256_load_ps(neg ? n.hi[a] : n.lo[a]), o), iv);
-            const __m256 tf = _mm256_mul_ps(_mm256_sub_ps(_mm256_load_ps(neg ? n.lo[a] : n.hi[a]), o), iv);
+            const vfloat8 o = org[a], iv = inv[a];
+            const vfloat8 tn = (vfloat8::load(neg ? n.hi[a] : n.lo[a]) - o) * iv;
+            const vfloat8 tf = (vfloat8::load(neg ? n.lo[a] : n.hi[a]) - o) * iv;
             // Slab term first: a NaN slab (0 * inf) leaves the interval as it is.
-            tnear = _mm256_max_ps(tn, tnear);
-            tfar = _mm256_min_ps(tf, tfar);
+            tnear = max(tn, tnear);
+            tfar = min(tf, tfar);
         }
-        const int m = _mm256_movemask_ps(
-            _mm256_cmp_ps(tnear, _mm256_mul_ps(tfar, _mm256_set1_ps(packet::kFarScale)), _CMP_LE_OQ));
+        const int m = movemask(tnear <= tfar * vfloat8(kFarScale));
         if constexpr (kCount) {
             int used = 0;
             for (int c = 0; c < kWideWidth; ++c) used += n.ref[c] != kEmptyChild;
@@ -424,7 +226,7 @@ struct Walker {
                 if (!r.live[c] && --live_chunks == 0) return true;
             } else if (changed) {
                 const int o = c * kPacketLanes;
-                _mm256_store_ps(r.cull + o, packet::cull_distance(_mm256_load_ps(r.best_t + o)));
+                store(r.cull + o, packet::cull_distance(vfloat8::load(r.best_t + o)));
                 moved = true;
             }
         }
@@ -462,12 +264,12 @@ void traverse_binary(const TreeView& tree, PacketRays& r, LocalCounters& k, uint
                 // The packs are read after the leaf's box test: start their
                 // (likely) cache misses now.
                 for (int line = 0; line < 3; ++line)
-                    _mm_prefetch(reinterpret_cast<const char*>(leaf_packs) + 64 * line, _MM_HINT_T0);
+                    simd::prefetch(reinterpret_cast<const char*>(leaf_packs) + 64 * line);
                 if (w.leaf(n.box, leaf_packs, n.count, f, l)) return;
             } else {
                 // Both children (read by the ordering below) while the box is tested.
-                _mm_prefetch(reinterpret_cast<const char*>(tree.nodes + n.index), _MM_HINT_T0);
-                _mm_prefetch(reinterpret_cast<const char*>(tree.nodes + n.index + 1), _MM_HINT_T0);
+                simd::prefetch(tree.nodes + n.index);
+                simd::prefetch(tree.nodes + n.index + 1);
                 if (w.enter(n.box, f, l)) {
                     // Near child first: the one whose centre lies further
                     // back along the first live ray's direction.
@@ -546,10 +348,10 @@ void traverse_wide(const TreeView& tree, PacketRays& r, LocalCounters& k, uint32
                     }
                     if (n.count[c] != 0)
                         for (int line = 0; line < 3; ++line)
-                            _mm_prefetch(reinterpret_cast<const char*>(tree.packs + n.ref[c]) + 64 * line, _MM_HINT_T0);
+                            simd::prefetch(reinterpret_cast<const char*>(tree.packs + n.ref[c]) + 64 * line);
                     else
                         for (int line = 0; line < 4; ++line)
-                            _mm_prefetch(reinterpret_cast<const char*>(tree.wide + n.ref[c]) + 64 * line, _MM_HINT_T0);
+                            simd::prefetch(reinterpret_cast<const char*>(tree.wide + n.ref[c]) + 64 * line);
                     // Insert by decreasing distance of the centre along the
                     // first ray (farthest pushed first, popped last).
                     const float d = dot(b.lo + b.hi, r.first_dir);
@@ -592,7 +394,7 @@ void dispatch(const TreeView& tree, PacketRays& r, LocalCounters& k, uint32_t* r
 }
 
 int count_active(const RayPacket& packet) {
-    const int size = packet.size < 0 ? 0 : (packet.size > kMaxPacketRays ? kMaxPacketRays : packet.size);
+    const int size = packet_size(packet);
     int n = 0;
     for (int i = 0; i < size; ++i) n += packet.is_active(i);
     return n;
@@ -616,7 +418,7 @@ namespace {
 // by sign bit); returns the set of octants present (bit per octant). Most
 // packets are single-octant: that is settled chunk by chunk first.
 uint32_t octants(const RayPacket& packet, uint8_t* octant) {
-    const int size = packet.size < 0 ? 0 : (packet.size > kMaxPacketRays ? kMaxPacketRays : packet.size);
+    const int size = packet_size(packet);
     {
         uint32_t neg[3] = {0, 0, 0}, pos[3] = {0, 0, 0};
         for (int c = 0; c * kPacketLanes < size; ++c) {
@@ -625,7 +427,7 @@ uint32_t octants(const RayPacket& packet, uint8_t* octant) {
             const uint32_t active = packet.chunk_mask(c) & ((1u << in_use) - 1u);
             const float* d[3] = {packet.dx + o, packet.dy + o, packet.dz + o};
             for (int a = 0; a < 3; ++a) {
-                const uint32_t m = static_cast<uint32_t>(_mm256_movemask_ps(_mm256_load_ps(d[a]))) & active;
+                const uint32_t m = static_cast<uint32_t>(movemask(signbit(vfloat8::load(d[a])))) & active;
                 neg[a] |= m;
                 pos[a] |= active & ~m;
             }
@@ -655,7 +457,7 @@ void trace(const RayPacket& packet, const TreeView& tree, float magnitude, Packe
            EmitAll emit_all) {
     LocalCounters k;
     auto run = [&](const RayPacket& p, PacketRays& r, uint32_t* visits) {
-        if (!prepare(p, magnitude, r)) return false;
+        if (!packet::prepare(p, magnitude, r)) return false;
         if (counters) dispatch<kAnyHit, true>(tree, r, k, visits);
         else dispatch<kAnyHit, false>(tree, r, k, nullptr);
         return true;
@@ -709,19 +511,16 @@ void Bvh::intersect(const RayPacket& packet, HitPacket& hits, PacketCounters* co
         hits.prim[i] = r.best_prim[j];
     };
     auto all = [&](const PacketRays& r) {
-        const __m256i lanes = _mm256_setr_epi32(1, 2, 4, 8, 16, 32, 64, 128);
         for (int c = 0; c < r.chunks; ++c) {
             if (!r.valid[c]) continue;
             const int o = c * kPacketLanes;
-            const __m256i prim = _mm256_load_si256(reinterpret_cast<const __m256i*>(r.best_prim + o));
-            const __m256i valid = _mm256_cmpeq_epi32(
-                _mm256_and_si256(_mm256_set1_epi32(static_cast<int>(r.valid[c])), lanes), lanes);
-            const __m256i hit = _mm256_andnot_si256(_mm256_cmpeq_epi32(prim, _mm256_set1_epi32(-1)), valid);
-            if (_mm256_testz_si256(hit, hit)) continue;
-            _mm256_maskstore_ps(hits.t + o, hit, _mm256_load_ps(r.best_t + o));
-            _mm256_maskstore_ps(hits.u + o, hit, _mm256_load_ps(r.best_u + o));
-            _mm256_maskstore_ps(hits.v + o, hit, _mm256_load_ps(r.best_v + o));
-            _mm256_maskstore_epi32(reinterpret_cast<int*>(hits.prim + o), hit, prim);
+            const vint8 prim = vint8::load(r.best_prim + o);
+            const vbool8 hit = andnot(vbool8::from_bits(static_cast<int>(r.valid[c])), prim == vint8(-1));
+            if (none(hit)) continue;
+            store(hit, hits.t + o, vfloat8::load(r.best_t + o));
+            store(hit, hits.u + o, vfloat8::load(r.best_u + o));
+            store(hit, hits.v + o, vfloat8::load(r.best_v + o));
+            store(hit, hits.prim + o, prim);
         }
     };
     trace<false>(packet, tree, magnitude, counters, one, all);

@@ -11,8 +11,6 @@
 //
 // Hits count for t in (tmin, tmax]. Invalid rays (NaN, zero or infinite
 // direction, tmin > tmax) hit nothing.
-#include <immintrin.h>
-
 #include <cmath>
 #include <cstddef>
 
@@ -37,6 +35,66 @@ struct Entry {
     float t;
 };
 
+// Starts loading a stack entry's node or leaf packs.
+template <class Node>
+__attribute__((always_inline)) inline void prefetch_entry(const Entry& e, const Node* nodes,
+                                                          const TrianglePack4* packs) {
+    const char* line = e.count == 0 ? reinterpret_cast<const char*>(&nodes[e.ref])
+                                    : reinterpret_cast<const char*>(&packs[e.ref]);
+    for (size_t l = 0; l < (e.count == 0 ? sizeof(Node) : sizeof(TrianglePack4)); l += 64) simd::prefetch(line + l);
+}
+
+// Closest hit, more than one child entered (`mask`, entry distances in
+// `entry`): pushes them farthest first onto stack[sp..] and pops the
+// nearest, which it returns.
+template <class Node>
+__attribute__((always_inline)) inline Entry push_near_first(const Node& n, int mask, const float* entry,
+                                                            Entry* stack, int& sp, const Node* nodes,
+                                                            const TrianglePack4* packs) {
+    const int base = sp;
+    for (; mask; mask &= mask - 1) {
+        const int c = __builtin_ctz(mask);
+        const Entry e{n.ref[c], n.count[c], entry[c]};
+        int j = sp;
+        while (j > base && stack[j - 1].t < e.t) {
+            stack[j] = stack[j - 1];
+            --j;
+        }
+        stack[j] = e;
+        ++sp;
+    }
+    const Entry nearest = stack[--sp];
+    // The second nearest child is the likeliest next pop: start loading it
+    // now, so its misses overlap the nearest subtree's work.
+    prefetch_entry(stack[sp - 1], nodes, packs);
+    return nearest;
+}
+
+// Any hit, more than one child entered (`mask`): the entry distances do not
+// matter (nothing is culled by distance below tmax, which the box test
+// already applied). Pushes the interior children (in any order) and starts
+// loading the one popped next, so that its cache misses overlap the leaf
+// tests; then tests the leaf children with `leaf` (true: a hit, which ends
+// the query). Returns whether a leaf was hit.
+template <class Node, class Leaf>
+__attribute__((always_inline)) inline bool any_hit_children(const Node& n, int mask, float tmin, Entry* stack,
+                                                            int& sp, const Node* nodes, Leaf&& leaf) {
+    // Interior children have count 0 (so do empty slots, but their empty
+    // boxes are never in `mask`).
+    const int interior = mask & NodeTraits<Node>::interior_mask(n);
+    const int base = sp;
+    for (int m = interior; m; m &= m - 1) stack[sp++] = {n.ref[__builtin_ctz(m)], 0, tmin};
+    if (sp > base) {
+        const char* next = reinterpret_cast<const char*>(&nodes[stack[sp - 1].ref]);
+        for (size_t line = 0; line < sizeof(Node) / 64; ++line) simd::prefetch(next + 64 * line);
+    }
+    for (int m = mask & ~interior; m; m &= m - 1) {
+        const int c = __builtin_ctz(m);
+        if (leaf(n.ref[c], n.count[c])) return true;
+    }
+    return false;
+}
+
 // The traversal loop, for one form of the box test (see BoxRay). `best.t`
 // starts at the ray's tmax and shrinks to the closest hit so far (inclusive).
 // Forced inline into Bvh::traverse: a call per ray costs primary rays.
@@ -44,8 +102,7 @@ template <bool kAnyHit, bool kCount, bool kFused, class Node>
 __attribute__((always_inline)) inline bool traverse_wide(const Node* nodes, const TrianglePack4* packs,
                                                          const BoxRay<Node>& box_ray, const TriRay& tri_ray,
                                                          float tmin, Closest& best, TraversalCounters* counters) {
-    using S = typename NodeTraits<Node>::S;
-    constexpr int W = S::kWidth;
+    constexpr int W = NodeTraits<Node>::kWidth;
     // Boxes farther than this cannot hold a closer hit; recomputed only when
     // a leaf moved best.t (any-hit queries never change it).
     float cull = cull_distance(best.t);
@@ -74,76 +131,37 @@ __attribute__((always_inline)) inline bool traverse_wide(const Node* nodes, cons
             // The child references (the node's fourth cache line) are read
             // only after the box test; asking for them now overlaps that
             // miss with the box planes' instead of serialising the two.
-            _mm_prefetch(reinterpret_cast<const char*>(n.ref), _MM_HINT_T0);
-            typename S::V entry_v;
-            int mask = intersect_node<kFused>(n, box_ray, tmin, cull, entry_v);
+            simd::prefetch(n.ref);
+            typename NodeTraits<Node>::V entry_v;
+            const int mask = intersect_node<kFused>(n, box_ray, tmin, cull, entry_v);
             if constexpr (kCount) {
                 ++counters->node_visits;
                 counters->box_tests += static_cast<uint64_t>(NodeTraits<Node>::used_slots(n));
             }
+            if (mask != 0 && (mask & (mask - 1)) == 0) {
+                // One child: no stack traffic.
+                const int c = __builtin_ctz(mask);
+                float t = tmin;
+                if constexpr (!kAnyHit) {
+                    alignas(32) float entry[W];
+                    store(entry, entry_v);
+                    t = entry[c];
+                }
+                current = {n.ref[c], n.count[c], t};
+                continue;
+            }
             if (mask != 0) {
                 if constexpr (kAnyHit) {
-                    // Any hit: the entry distances do not matter (nothing
-                    // is culled by distance below tmax, which the box test
-                    // already applied), so they are not kept.
-                    if ((mask & (mask - 1)) == 0) {
-                        const int c = __builtin_ctz(mask);
-                        current = {n.ref[c], n.count[c], tmin};
-                        continue;
-                    }
                     const int base = sp;
-                    // Interior children have count 0 (so do empty slots, but
-                    // their empty boxes are never in `mask`).
-                    const int interior = mask & NodeTraits<Node>::interior_mask(n);
-                    // Push interior children first (in any order) and start
-                    // loading the one popped next, so that its cache misses
-                    // overlap the leaf tests below.
-                    for (int m = interior; m; m &= m - 1) stack[sp++] = {n.ref[__builtin_ctz(m)], 0, tmin};
-                    if (sp > base) {
-                        const char* next = reinterpret_cast<const char*>(&nodes[stack[sp - 1].ref]);
-                        for (size_t line = 0; line < sizeof(Node) / 64; ++line)
-                            _mm_prefetch(next + 64 * line, _MM_HINT_T0);
-                    }
-                    // Then test the leaf children (a hit ends the query).
-                    for (int m = mask & ~interior; m; m &= m - 1) {
-                        const int c = __builtin_ctz(m);
-                        if (leaf(n.ref[c], n.count[c])) return true;
-                    }
+                    if (any_hit_children(n, mask, tmin, stack, sp, nodes, leaf)) return true;
                     if (sp > base) {
                         current = stack[--sp];
                         continue;
                     }
                 } else {
                     alignas(32) float entry[W];
-                    S::store(entry, entry_v);
-                    if ((mask & (mask - 1)) == 0) {
-                        // One child: no stack traffic.
-                        const int c = __builtin_ctz(mask);
-                        current = {n.ref[c], n.count[c], entry[c]};
-                        continue;
-                    }
-                    const int base = sp;
-                    // Closest hit: push farthest first so the nearest is popped first.
-                    for (; mask; mask &= mask - 1) {
-                        const int c = __builtin_ctz(mask);
-                        const Entry e{n.ref[c], n.count[c], entry[c]};
-                        int j = sp;
-                        while (j > base && stack[j - 1].t < e.t) {
-                            stack[j] = stack[j - 1];
-                            --j;
-                        }
-                        stack[j] = e;
-                        ++sp;
-                    }
-                    current = stack[--sp];
-                    // The second nearest child is the likeliest next pop:
-                    // start loading it now, so its misses overlap the
-                    // nearest subtree's work.
-                    const Entry& next = stack[sp - 1];
-                    const char* line = next.count == 0 ? reinterpret_cast<const char*>(&nodes[next.ref])
-                                                       : reinterpret_cast<const char*>(&packs[next.ref]);
-                    for (size_t l = 0; l < (next.count == 0 ? sizeof(Node) : sizeof(TrianglePack4)); l += 64)
-                        _mm_prefetch(line + l, _MM_HINT_T0);
+                    store(entry, entry_v);
+                    current = push_near_first(n, mask, entry, stack, sp, nodes, packs);
                     continue;
                 }
             }

@@ -16,46 +16,33 @@
 //  - a zero direction component gives an infinite reciprocal of the right
 //    sign. The only undefined product, 0 * inf, occurs for an origin exactly on
 //    a slab plane of a parallel ray; it yields NaN, and the min/max chains are
-//    written with the slab term first (max_ps/min_ps return the second
+//    written with the slab term first (min/max return the second
 //    operand when either is NaN), so that slab does not restrict the
 //    interval: conservative.
 //  - rays whose products all stay finite use an equally conservative fused
 //    form, fma(plane, 1/d, -o/d rounded outward) (see RayBoxConstants).
 #pragma once
 
-#include <immintrin.h>
-
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
 
 #include "../core/bbox.h"
+#include "../core/float_bounds.h"
 #include "../core/ray.h"
+#include "../core/simd.h"
 #include "../core/vec.h"
 #include "bvh_layout.h"
 #include "triangle.h"
 
 namespace coherent::kernel {
 
-// gamma(n) = n eps / (1 - n eps), eps = 2^-24: the relative error bound of n
-// rounded operations (pbrt-v3, section 3.9).
-constexpr float gamma_bound(int n) {
-    constexpr float eps = 0.5f * 1.1920928955078125e-07f;
-    return (n * eps) / (1.0f - n * eps);
-}
-constexpr float kFarScale = 1.0f + 2.0f * gamma_bound(3);
+using simd::vfloat;
+using simd::vfloat4;
+using simd::vint;
 
-// Boxes are culled against the closest hit so far plus this relative slack.
-// A triangle's computed t carries its own rounding error and may land a few
-// ulps below the (exactly conservative) entry distance of its box; without
-// slack, a tie between neighbours (a ray through a shared edge) would be
-// resolved by whichever leaf the traversal happened to reach first. With it,
-// every triangle whose computed t is <= the best t is tested (unless its t
-// error exceeds 2^-12 relative, which takes a pathologically ill-conditioned
-// hit), so the tie rule (lowest triangle index) decides, independent of the
-// tree and of the kernel.
-constexpr float kCullSlack = 0x1p-12f;
-
+// Boxes are culled against the closest hit so far plus a relative slack
+// (kCullSlack, float_bounds.h, says why).
 inline float cull_distance(float t) { return std::isfinite(t) ? t + std::fabs(t) * kCullSlack : t; }
 
 // Rays every kernel rejects up front (they hit nothing).
@@ -66,70 +53,34 @@ inline bool valid_ray(const Ray& r) {
     return true;
 }
 
-// ---- SIMD width traits: the box test written once for 4 and 8 lanes ---------
-
-struct Simd8 {
-    using V = __m256;
-    static constexpr int kWidth = 8;
-    static V set1(float x) { return _mm256_set1_ps(x); }
-    static V load(const float* p) { return _mm256_load_ps(p); }
-    static void store(float* p, V v) { _mm256_store_ps(p, v); }
-    static V fmsub(V a, V b, V c) { return _mm256_fmsub_ps(a, b, c); }
-    static V sub(V a, V b) { return _mm256_sub_ps(a, b); }
-    static V mul(V a, V b) { return _mm256_mul_ps(a, b); }
-    static V max(V a, V b) { return _mm256_max_ps(a, b); }
-    static V min(V a, V b) { return _mm256_min_ps(a, b); }
-    static int le_mask(V a, V b) { return _mm256_movemask_ps(_mm256_cmp_ps(a, b, _CMP_LE_OQ)); }
-    // Lanes of the eight words at p equal to `value`.
-    static int equal_mask(const uint32_t* p, uint32_t value) {
-        const __m256i x = _mm256_load_si256(reinterpret_cast<const __m256i*>(p));
-        return _mm256_movemask_ps(
-            _mm256_castsi256_ps(_mm256_cmpeq_epi32(x, _mm256_set1_epi32(static_cast<int>(value)))));
-    }
-};
-
-struct Simd4 {
-    using V = __m128;
-    static constexpr int kWidth = 4;
-    static V set1(float x) { return _mm_set1_ps(x); }
-    static V load(const float* p) { return _mm_load_ps(p); }
-    static void store(float* p, V v) { _mm_store_ps(p, v); }
-    static V fmsub(V a, V b, V c) { return _mm_fmsub_ps(a, b, c); }
-    static V sub(V a, V b) { return _mm_sub_ps(a, b); }
-    static V mul(V a, V b) { return _mm_mul_ps(a, b); }
-    static V max(V a, V b) { return _mm_max_ps(a, b); }
-    static V min(V a, V b) { return _mm_min_ps(a, b); }
-    static int le_mask(V a, V b) { return _mm_movemask_ps(_mm_cmple_ps(a, b)); }
-    static int equal_mask(const uint32_t* p, uint32_t value) {
-        const __m128i x = _mm_load_si128(reinterpret_cast<const __m128i*>(p));
-        return _mm_movemask_ps(_mm_castsi128_ps(_mm_cmpeq_epi32(x, _mm_set1_epi32(static_cast<int>(value)))));
-    }
-};
-
-// What the wide kernel needs to know of a node type: its SIMD width, where
-// its planes are and how they decode, and which slots hold children.
+// What the wide kernel needs to know of a node type: its SIMD width (the box
+// test is written once for 4 and 8 lanes), where its planes are and how
+// they decode, and which slots hold children.
 template <class Node>
 struct NodeTraits;
 
 // Float nodes (WideNode8, WideNode4): planes are stored as they are; empty
 // slots have empty boxes, which no ray enters. (A node type whose planes are
 // decoded, e.g. quantized, would provide its own planes() and valid_mask().)
-template <class Node, class Simd>
+template <class Node, int W>
 struct FloatNodeTraits {
-    using S = Simd;
+    static constexpr int kWidth = W;
+    using V = vfloat<W>;
     static constexpr uint32_t kLo = offsetof(Node, lo), kHi = offsetof(Node, hi);
-    static constexpr uint32_t kAxis = sizeof(float) * S::kWidth;  // bytes between axes
-    static typename S::V planes(const Node& n, uint32_t offset, int /*axis*/) {
-        return S::load(reinterpret_cast<const float*>(reinterpret_cast<const char*>(&n) + offset));
+    static constexpr uint32_t kAxis = sizeof(float) * W;  // bytes between axes
+    static V planes(const Node& n, uint32_t offset, int /*axis*/) {
+        return V::load(reinterpret_cast<const float*>(reinterpret_cast<const char*>(&n) + offset));
     }
-    static int valid_mask(const Node&) { return (1 << S::kWidth) - 1; }
-    static int interior_mask(const Node& n) { return S::equal_mask(n.count, 0); }
-    static int used_slots(const Node& n) { return S::kWidth - __builtin_popcount(S::equal_mask(n.ref, kEmptyChild)); }
+    static int valid_mask(const Node&) { return (1 << W) - 1; }
+    static int interior_mask(const Node& n) { return movemask(vint<W>::load(n.count) == vint<W>(0)); }
+    static int used_slots(const Node& n) {
+        return W - popcount(vint<W>::load(n.ref) == vint<W>(static_cast<int32_t>(kEmptyChild)));
+    }
 };
 template <>
-struct NodeTraits<WideNode8> : FloatNodeTraits<WideNode8, Simd8> {};
+struct NodeTraits<WideNode8> : FloatNodeTraits<WideNode8, 8> {};
 template <>
-struct NodeTraits<WideNode4> : FloatNodeTraits<WideNode4, Simd4> {};
+struct NodeTraits<WideNode4> : FloatNodeTraits<WideNode4, 4> {};
 
 
 // ---- per-ray constants of the box test ---------------------------------------
@@ -167,19 +118,17 @@ struct RayBoxConstants {
     RayBoxConstants() = default;
     // `o4`, `inv4`: the origin and 1 / d (lanes x, y, z; lane 3 unused).
     // `magnitude`: the largest absolute coordinate of the scene's bounds.
-    RayBoxConstants(__m128 o4, __m128 inv4, float magnitude) {
+    RayBoxConstants(vfloat4 o4, vfloat4 inv4, float magnitude) {
         alignas(16) float lanes[4][4];
-        _mm_store_ps(lanes[0], o4);
-        _mm_store_ps(lanes[1], inv4);
-        const __m128 sign = _mm_set1_ps(-0.0f);
+        store(lanes[0], o4);
+        store(lanes[1], inv4);
         // |fl(o * inv) - o * inv| <= 2^-24 |fl(o * inv)| (1 + 2^-23); a margin
         // of 2^-22 |e| survives the rounding of the addition (+ 2^-126 for an
         // e so small that o * inv rounds with an absolute error).
-        const __m128 e = _mm_mul_ps(o4, inv4);
-        const __m128 margin =
-            _mm_add_ps(_mm_mul_ps(_mm_andnot_ps(sign, e), _mm_set1_ps(0x1p-22f)), _mm_set1_ps(0x1p-126f));
-        _mm_store_ps(lanes[2], _mm_add_ps(e, margin));
-        _mm_store_ps(lanes[3], _mm_sub_ps(e, margin));
+        const vfloat4 e = o4 * inv4;
+        const vfloat4 margin = abs(e) * vfloat4(0x1p-22f) + vfloat4(0x1p-126f);
+        store(lanes[2], e + margin);
+        store(lanes[3], e - margin);
         for (int a = 0; a < 3; ++a) {
             o[a] = lanes[0][a];
             inv[a] = lanes[1][a];
@@ -188,16 +137,16 @@ struct RayBoxConstants {
         }
         // |1/d| * max(|o|, magnitude, 1) <= 2^100 on x, y and z (an infinite
         // 1/d, or an overflowing product, fails the comparison).
-        const __m128 m = _mm_max_ps(_mm_max_ps(_mm_andnot_ps(sign, o4), _mm_set1_ps(magnitude)), _mm_set1_ps(1.0f));
-        const __m128 reach = _mm_mul_ps(_mm_andnot_ps(sign, inv4), m);
-        fused = (_mm_movemask_ps(_mm_cmple_ps(reach, _mm_set1_ps(0x1p100f))) & 7) == 7;
+        const vfloat4 m = max(max(abs(o4), vfloat4(magnitude)), vfloat4(1.0f));
+        const vfloat4 reach = abs(inv4) * m;
+        fused = (movemask(reach <= vfloat4(0x1p100f)) & 7) == 7;
         for (int a = 0; a < 3; ++a) near_is_hi[a] = std::signbit(inv[a]);
     }
     // From a ray (1/d by one correctly rounded division per lane, like the
     // scalar one, so every kernel derives the same WatertightRay from it).
     static RayBoxConstants from_ray(const Ray& ray, float magnitude) {
-        const __m128 inv4 = _mm_div_ps(_mm_set1_ps(1.0f), _mm_setr_ps(ray.d.x, ray.d.y, ray.d.z, 1.0f));
-        return RayBoxConstants(_mm_setr_ps(ray.o.x, ray.o.y, ray.o.z, 0.0f), inv4, magnitude);
+        const vfloat4 inv4 = vfloat4(1.0f) / vfloat4(ray.d.x, ray.d.y, ray.d.z, 1.0f);
+        return RayBoxConstants(vfloat4(ray.o.x, ray.o.y, ray.o.z, 0.0f), inv4, magnitude);
     }
     Vec3f inverse_direction() const { return {inv[0], inv[1], inv[2]}; }
 };
@@ -205,8 +154,7 @@ struct RayBoxConstants {
 // Splatted constants of the W-box slab test for one node type.
 template <class Node>
 struct BoxRay {
-    using S = typename NodeTraits<Node>::S;
-    using V = typename S::V;
+    using V = typename NodeTraits<Node>::V;
     V ox, oy, oz;     // splatted origin
     V ix, iy, iz;     // splatted 1/d
     V chx, chy, chz;  // fused form, near planes
@@ -216,10 +164,10 @@ struct BoxRay {
     uint32_t nx, ny, nz, fx, fy, fz;
 
     explicit BoxRay(const RayBoxConstants& k) {
-        ox = S::set1(k.o[0]); oy = S::set1(k.o[1]); oz = S::set1(k.o[2]);
-        ix = S::set1(k.inv[0]); iy = S::set1(k.inv[1]); iz = S::set1(k.inv[2]);
-        chx = S::set1(k.ch[0]); chy = S::set1(k.ch[1]); chz = S::set1(k.ch[2]);
-        clx = S::set1(k.cl[0]); cly = S::set1(k.cl[1]); clz = S::set1(k.cl[2]);
+        ox = k.o[0]; oy = k.o[1]; oz = k.o[2];
+        ix = k.inv[0]; iy = k.inv[1]; iz = k.inv[2];
+        chx = k.ch[0]; chy = k.ch[1]; chz = k.ch[2];
+        clx = k.cl[0]; cly = k.cl[1]; clz = k.cl[2];
         fused = k.fused;
         constexpr uint32_t lo = NodeTraits<Node>::kLo, hi = NodeTraits<Node>::kHi;
         constexpr uint32_t axis = NodeTraits<Node>::kAxis;
@@ -236,33 +184,34 @@ struct BoxRay {
 // Tests the W children of `n`; returns the hit mask and their entry distances.
 template <bool kFused, class Node>
 inline int intersect_node(const Node& n, const BoxRay<Node>& r, float tmin, float tmax,
-                          typename NodeTraits<Node>::S::V& entry) {
-    using S = typename NodeTraits<Node>::S;
-    typename S::V tnx, tny, tnz, tfx, tfy, tfz;
+                          typename NodeTraits<Node>::V& entry) {
+    using T = NodeTraits<Node>;
+    using V = typename T::V;
+    V tnx, tny, tnz, tfx, tfy, tfz;
     if constexpr (kFused) {
-        tnx = S::fmsub(NodeTraits<Node>::planes(n, r.nx, 0), r.ix, r.chx);
-        tny = S::fmsub(NodeTraits<Node>::planes(n, r.ny, 1), r.iy, r.chy);
-        tnz = S::fmsub(NodeTraits<Node>::planes(n, r.nz, 2), r.iz, r.chz);
-        tfx = S::fmsub(NodeTraits<Node>::planes(n, r.fx, 0), r.ix, r.clx);
-        tfy = S::fmsub(NodeTraits<Node>::planes(n, r.fy, 1), r.iy, r.cly);
-        tfz = S::fmsub(NodeTraits<Node>::planes(n, r.fz, 2), r.iz, r.clz);
+        tnx = fmsub(T::planes(n, r.nx, 0), r.ix, r.chx);
+        tny = fmsub(T::planes(n, r.ny, 1), r.iy, r.chy);
+        tnz = fmsub(T::planes(n, r.nz, 2), r.iz, r.chz);
+        tfx = fmsub(T::planes(n, r.fx, 0), r.ix, r.clx);
+        tfy = fmsub(T::planes(n, r.fy, 1), r.iy, r.cly);
+        tfz = fmsub(T::planes(n, r.fz, 2), r.iz, r.clz);
     } else {
-        tnx = S::mul(S::sub(NodeTraits<Node>::planes(n, r.nx, 0), r.ox), r.ix);
-        tny = S::mul(S::sub(NodeTraits<Node>::planes(n, r.ny, 1), r.oy), r.iy);
-        tnz = S::mul(S::sub(NodeTraits<Node>::planes(n, r.nz, 2), r.oz), r.iz);
-        tfx = S::mul(S::sub(NodeTraits<Node>::planes(n, r.fx, 0), r.ox), r.ix);
-        tfy = S::mul(S::sub(NodeTraits<Node>::planes(n, r.fy, 1), r.oy), r.iy);
-        tfz = S::mul(S::sub(NodeTraits<Node>::planes(n, r.fz, 2), r.oz), r.iz);
+        tnx = (T::planes(n, r.nx, 0) - r.ox) * r.ix;
+        tny = (T::planes(n, r.ny, 1) - r.oy) * r.iy;
+        tnz = (T::planes(n, r.nz, 2) - r.oz) * r.iz;
+        tfx = (T::planes(n, r.fx, 0) - r.ox) * r.ix;
+        tfy = (T::planes(n, r.fy, 1) - r.oy) * r.iy;
+        tfz = (T::planes(n, r.fz, 2) - r.oz) * r.iz;
     }
-    // Slab term first: max_ps/min_ps return the second operand when either
-    // is NaN, so a NaN slab leaves the accumulator unchanged.
-    const auto tnear = S::max(tnz, S::max(tny, S::max(tnx, S::set1(tmin))));
-    const auto tfar = S::min(tfz, S::min(tfy, S::min(tfx, S::set1(tmax))));
+    // Slab term first: min/max return the second operand when either is
+    // NaN, so a NaN slab leaves the accumulator unchanged.
+    const V tnear = max(tnz, max(tny, max(tnx, V(tmin))));
+    const V tfar = min(tfz, min(tfy, min(tfx, V(tmax))));
     // Ize's (1 + 2 gamma(3)) on the far distance; scaling after the min is the
     // same as scaling each slab (rounding is monotonic) and also widens tmax a
     // hair, which only costs a rare extra visit.
     entry = tnear;
-    return S::le_mask(tnear, S::mul(tfar, S::set1(kFarScale))) & NodeTraits<Node>::valid_mask(n);
+    return movemask(tnear <= tfar * V(kFarScale)) & T::valid_mask(n);
 }
 
 // The same exact (Ize) test for one box of the binary tree: scalar, with the
@@ -288,16 +237,10 @@ inline bool intersect_box(const BBox& b, const RayBoxConstants& k, float tmin, f
 // Per-ray constants of the 4-wide watertight triangle test.
 struct TriRay {
     WatertightRay w;
-    __m128 okx, oky, okz;  // origin in the permuted axes
-    __m128 sx, sy, sz;
-    explicit TriRay(const WatertightRay& wr) : w(wr) {
-        okx = _mm_set1_ps(w.o[w.kx]);
-        oky = _mm_set1_ps(w.o[w.ky]);
-        okz = _mm_set1_ps(w.o[w.kz]);
-        sx = _mm_set1_ps(w.sx);
-        sy = _mm_set1_ps(w.sy);
-        sz = _mm_set1_ps(w.sz);
-    }
+    vfloat4 okx, oky, okz;  // origin in the permuted axes
+    vfloat4 sx, sy, sz;
+    explicit TriRay(const WatertightRay& wr)
+        : w(wr), okx(w.o[w.kx]), oky(w.o[w.ky]), okz(w.o[w.kz]), sx(w.sx), sy(w.sy), sz(w.sz) {}
     TriRay(const Ray& r, const Vec3f& inv) : TriRay(WatertightRay(r.o, r.d, inv)) {}
 };
 
@@ -323,49 +266,44 @@ inline Vec3f pack_vertex(const TrianglePack4& p, int vtx, int lane) {
 template <bool kAnyHit>
 inline bool intersect_pack(const TrianglePack4& p, int lanes, const TriRay& r, float tmin, Closest& best) {
     const int kx = r.w.kx, ky = r.w.ky, kz = r.w.kz;
-    auto shear = [&](int vtx, __m128& x, __m128& y, __m128& z) {
-        const __m128 dx = _mm_sub_ps(_mm_load_ps(p.v[vtx][kx]), r.okx);
-        const __m128 dy = _mm_sub_ps(_mm_load_ps(p.v[vtx][ky]), r.oky);
-        z = _mm_sub_ps(_mm_load_ps(p.v[vtx][kz]), r.okz);
-        x = _mm_sub_ps(dx, _mm_mul_ps(r.sx, z));
-        y = _mm_sub_ps(dy, _mm_mul_ps(r.sy, z));
+    // Vertex vtx minus the origin in the permuted axes, sheared.
+    auto shear = [&](int vtx, vfloat4& x, vfloat4& y, vfloat4& z) {
+        const vfloat4 dx = vfloat4::load(p.v[vtx][kx]) - r.okx;
+        const vfloat4 dy = vfloat4::load(p.v[vtx][ky]) - r.oky;
+        z = vfloat4::load(p.v[vtx][kz]) - r.okz;
+        x = dx - r.sx * z;
+        y = dy - r.sy * z;
     };
-    __m128 ax, ay, az, bx, by, bz, cx, cy, cz;
+    vfloat4 ax, ay, az, bx, by, bz, cx, cy, cz;
     shear(0, ax, ay, az);
     shear(1, bx, by, bz);
     shear(2, cx, cy, cz);
-    const __m128 u = _mm_sub_ps(_mm_mul_ps(cx, by), _mm_mul_ps(cy, bx));
-    const __m128 v = _mm_sub_ps(_mm_mul_ps(ax, cy), _mm_mul_ps(ay, cx));
-    const __m128 w = _mm_sub_ps(_mm_mul_ps(bx, ay), _mm_mul_ps(by, ax));
+    const vfloat4 u = cx * by - cy * bx;
+    const vfloat4 v = ax * cy - ay * cx;
+    const vfloat4 w = bx * ay - by * ax;
 
     const int lane_mask = (1 << lanes) - 1;
-    const __m128 zero = _mm_setzero_ps();
-    const int exact_zero =
-        _mm_movemask_ps(_mm_or_ps(_mm_or_ps(_mm_cmpeq_ps(u, zero), _mm_cmpeq_ps(v, zero)), _mm_cmpeq_ps(w, zero))) &
-        lane_mask;
-
-    const __m128 neg = _mm_or_ps(_mm_or_ps(_mm_cmplt_ps(u, zero), _mm_cmplt_ps(v, zero)), _mm_cmplt_ps(w, zero));
-    const __m128 pos = _mm_or_ps(_mm_or_ps(_mm_cmpgt_ps(u, zero), _mm_cmpgt_ps(v, zero)), _mm_cmpgt_ps(w, zero));
-    const __m128 inside = _mm_andnot_ps(_mm_and_ps(neg, pos), _mm_castsi128_ps(_mm_set1_epi32(-1)));
+    const vfloat4 zero = vfloat4::zero();
+    const int exact_zero = movemask(((u == zero) | (v == zero)) | (w == zero)) & lane_mask;
+    const simd::vbool4 neg = ((u < zero) | (v < zero)) | (w < zero);
+    const simd::vbool4 pos = ((u > zero) | (v > zero)) | (w > zero);
+    const simd::vbool4 inside = ~(neg & pos);
     // Most tests end here: the ray passes outside every triangle of the pack.
-    if (((_mm_movemask_ps(inside) & lane_mask) | exact_zero) == 0) return false;
-    const __m128 det = _mm_add_ps(_mm_add_ps(u, v), w);
-    const __m128 tscaled = _mm_add_ps(
-        _mm_add_ps(_mm_mul_ps(u, _mm_mul_ps(r.sz, az)), _mm_mul_ps(v, _mm_mul_ps(r.sz, bz))),
-        _mm_mul_ps(w, _mm_mul_ps(r.sz, cz)));
-    const __m128 rcp = _mm_div_ps(_mm_set1_ps(1.0f), det);
-    const __m128 t = _mm_mul_ps(tscaled, rcp);
-    __m128 ok = _mm_and_ps(inside, _mm_cmpneq_ps(det, zero));
-    ok = _mm_and_ps(ok, _mm_and_ps(_mm_cmpgt_ps(t, _mm_set1_ps(tmin)), _mm_cmple_ps(t, _mm_set1_ps(best.t))));
-    int hits = _mm_movemask_ps(ok) & lane_mask & ~exact_zero;
+    if (((movemask(inside) & lane_mask) | exact_zero) == 0) return false;
+    const vfloat4 det = (u + v) + w;
+    const vfloat4 tscaled = (u * (r.sz * az) + v * (r.sz * bz)) + w * (r.sz * cz);
+    const vfloat4 rcp = vfloat4(1.0f) / det;
+    const vfloat4 t = tscaled * rcp;
+    const simd::vbool4 ok = (inside & (det != zero)) & ((t > vfloat4(tmin)) & (t <= vfloat4(best.t)));
+    int hits = movemask(ok) & lane_mask & ~exact_zero;
 
     bool found = false;
     if (hits) {
         if constexpr (kAnyHit) return true;
         alignas(16) float ts[4], us[4], vs[4];
-        _mm_store_ps(ts, t);
-        _mm_store_ps(us, _mm_mul_ps(v, rcp));
-        _mm_store_ps(vs, _mm_mul_ps(w, rcp));
+        store(ts, t);
+        store(us, v * rcp);
+        store(vs, w * rcp);
         found = true;
         for (; hits; hits &= hits - 1) {
             const int l = __builtin_ctz(hits);

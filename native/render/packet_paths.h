@@ -290,7 +290,7 @@ void trace_batch_streams(const PathContext& ctx, PathBatch<Sampler>& batch, Stre
                          RenderStats& st) {
     const Bvh& bvh = *ctx.bvh;
     StreamOptions options;
-    options.batch_size = 0;  // the whole stream at once
+    options.slice_size = 0;  // the whole stream at once
     options.parallel = false;
     auto book = [&](int bounce, const StreamStats& ss, const std::vector<int>& path, auto&& type_of) {
         for (size_t i = 0; i < path.size(); ++i) book_rays(st, bounce, type_of(path[i]), 1);

@@ -10,12 +10,12 @@
 #include <cmath>
 #include <cstring>
 
+#include "../core/float_bounds.h"
 #include "../core/vec.h"
 
 namespace coherent {
 
 constexpr float kMachineEps = 0x1p-24f;
-constexpr float gamma_bound(int n) { return (float(n) * kMachineEps) / (1.0f - float(n) * kMachineEps); }
 
 // Point on triangle (p0, p1, p2) at barycentrics (u, v) with an absolute
 // error bound that also covers the intersector.

@@ -66,7 +66,7 @@ TEST(RayStream, StreamSizesMatchSingleRays) {
             const auto rays = random_rays(n, 100 + uint32_t(n), 10.0f);
             for (size_t batch : {size_t(0), size_t(1), size_t(3), size_t(256)}) {
                 StreamOptions opt;
-                opt.batch_size = batch;
+                opt.slice_size = batch;
                 expect_stream_matches_single(bvh, rays, opt);
             }
         }
@@ -81,7 +81,7 @@ TEST(RayStream, HundredThousandRaysSerialAndParallel) {
     for (bool parallel : {false, true})
         for (size_t batch : {size_t(4096), size_t(65536), size_t(0)}) {
             StreamOptions opt;
-            opt.batch_size = batch;
+            opt.slice_size = batch;
             opt.parallel = parallel;
             size_t hits = 0;
             expect_stream_matches_single(bvh, rays, opt, &hits);
@@ -185,12 +185,12 @@ TEST(RayStream, CountersAddUp) {
     const auto rays = random_rays(5000, 10, 10.0f);
     std::vector<Hit> hits(rays.size());
     StreamOptions opt;
-    opt.batch_size = 1000;
+    opt.slice_size = 1000;
     opt.parallel = false;
     StreamStats st;
     intersect_stream(bvh, rays.data(), rays.size(), hits.data(), &st, opt);
     EXPECT_EQ(st.rays, 5000u);
-    EXPECT_EQ(st.batches, 5u);
+    EXPECT_EQ(st.slices, 5u);
     // Every batch enters the root once with all its (valid) rays.
     EXPECT_EQ(st.level_visits[0], 5u);
     EXPECT_EQ(st.level_rays[0], 5000u);
