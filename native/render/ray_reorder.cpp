@@ -2,32 +2,26 @@
 #include "ray_reorder.h"
 
 #include <immintrin.h>
-#include <time.h>
 
 #include <algorithm>
 #include <array>
 #include <cmath>
 #include <numeric>
 
+#include "../core/thread_time.h"
+
 namespace coherent {
 
 namespace {
 
-// Thread CPU time: reorderings run inside one wave on one thread, and on a
-// shared machine wall time would also count time spent descheduled.
-double thread_seconds() {
-    timespec ts;
-    clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
-    return double(ts.tv_sec) + 1e-9 * double(ts.tv_nsec);
-}
-
-// Starts timing only when someone asked for timings.
+// Starts timing only when someone asked for timings. Thread CPU time:
+// reorderings run inside one wave on one thread.
 struct Stopwatch {
-    explicit Stopwatch(bool on) : on_(on), start_(on ? thread_seconds() : 0.0) {}
+    explicit Stopwatch(bool on) : on_(on), start_(on ? thread_cpu_seconds() : 0.0) {}
     // Adds the time since the last lap to `acc`.
     void lap(double* acc) {
         if (!on_) return;
-        const double now = thread_seconds();
+        const double now = thread_cpu_seconds();
         *acc += now - start_;
         start_ = now;
     }
@@ -163,7 +157,7 @@ const AngleBins kAngleBins;
 namespace {
 
 // The origin box as offsets and scales to the 8-bit grid, computed once per
-// batch: a multiply per axis instead of a divide. A flat or empty axis gets
+// reordering: a multiply per axis instead of a divide. A flat or empty axis gets
 // scale 0 (every origin in cell 0).
 struct KeyFrame32 {
     Vec3f lo{0.0f}, scale{0.0f};
