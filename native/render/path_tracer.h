@@ -1,6 +1,7 @@
 // Depth-first driver of the path state machine (path_state.h): one camera
 // sample's path, each ray traced singly the moment it exists. The reference
-// every batched driver (packets, streams, wavefront) must match bit for bit.
+// every driver that traces many paths together (packets, streams,
+// wavefront) must match bit for bit.
 //
 // The kernel is a template over the few SceneFeatures bits that change which
 // rays exist, so a scene without glass has no refraction code, one without
@@ -12,6 +13,8 @@
 // ray is still traced to collect (MIS-weighted) emission, then the path ends.
 // So max_bounces = 0 gives direct lighting only, as in Blender.
 #pragma once
+
+#include <type_traits>
 
 #include "path_state.h"
 
@@ -65,37 +68,47 @@ inline void book_single_ray(RenderStats& st, int bounce, RayType type, const Tra
     if (path_node_visits) *path_node_visits += uint32_t(c.node_visits);
 }
 
-template <class Sampler, bool kGlass, bool kDepthOfField, bool kLights>
-PathOutput trace_path(const PathContext& ctx, const PathSampler<Sampler>& ps, int px, int py, RenderStats& st,
+// Traces a path's occlusion rays one at a time and resolves them.
+inline void trace_occlusion_rays(const PathContext& ctx, const PathSampler<ImageSampler>& ps, PathState& s,
+                                 int bounce, RenderStats& st, uint32_t* node_visits) {
+    const int rays = occlusion_ray_count(s);
+    if (rays == 0) return;
+    int unoccluded = 0;
+    for (int k = 0; k < rays; ++k) {
+        TraversalCounters c;
+        const Ray r = occlusion_ray(ctx, ps, s, k);
+        unoccluded += ctx.bvh->occluded(r, &c) || motion_occluded(ctx, s, r, &c) ? 0 : 1;
+        book_single_ray(st, bounce, RayType::Shadow, c, node_visits);
+    }
+    resolve_occlusion(s, unoccluded);
+}
+
+template <bool kGlass, bool kDepthOfField, bool kLights>
+PathOutput trace_path(const PathContext& ctx, const PathSampler<ImageSampler>& ps, int px, int py, RenderStats& st,
                       uint32_t* node_visits = nullptr) {
     const Bvh& bvh = *ctx.bvh;
     PathState s;
-    start_path<Sampler, kDepthOfField>(ctx, ps, px, py, s);
+    start_path<kDepthOfField>(ctx, ps, px, py, s);
     while (s.alive) {
         const int bounce = s.bounce;
         TraversalCounters c;
         Hit hit;
         const bool found = merge_motion_hit(ctx, s, bvh.intersect(s.ray, hit, &c), hit, &c);
         book_single_ray(st, bounce, s.type, c, node_visits);
-        shade_hit<Sampler, kGlass, kLights>(ctx, ps, s, found, hit);
-        if (s.has_shadow) {
-            TraversalCounters cs;
-            const bool occluded = bvh.occluded(s.shadow, &cs) || motion_occluded(ctx, s, s.shadow, &cs);
-            book_single_ray(st, bounce, RayType::Shadow, cs, node_visits);
-            resolve_shadow(s, occluded);
-        }
-        if (s.ao_rays > 0) {
-            int unoccluded = 0;
-            for (int i = 0; i < s.ao_rays; ++i) {
-                TraversalCounters ca;
-                const Ray r = ao_ray(ctx, ps, s, i);
-                unoccluded += bvh.occluded(r, &ca) || motion_occluded(ctx, s, r, &ca) ? 0 : 1;
-                book_single_ray(st, bounce, RayType::Shadow, ca, node_visits);
-            }
-            resolve_ao(s, unoccluded);
-        }
+        shade_hit<kGlass, kLights>(ctx, ps, s, found, hit);
+        trace_occlusion_rays(ctx, ps, s, bounce, st, node_visits);
     }
     return s.out;
+}
+
+// The spelling tests/native/test_wavefront.cpp still uses, from when the
+// sampler was a template parameter; ImageSampler is the only sampler.
+// Remove once that test calls trace_path<kGlass, kDepthOfField, kLights>.
+template <class Sampler, bool kGlass, bool kDepthOfField, bool kLights>
+    requires std::is_same_v<Sampler, ImageSampler>
+PathOutput trace_path(const PathContext& ctx, const PathSampler<ImageSampler>& ps, int px, int py, RenderStats& st,
+                      uint32_t* node_visits = nullptr) {
+    return trace_path<kGlass, kDepthOfField, kLights>(ctx, ps, px, py, st, node_visits);
 }
 
 }  // namespace coherent
