@@ -356,6 +356,27 @@ std::unique_ptr<WavefrontPool> make_wavefront_pool(const PathContext& ctx, const
     return pool;
 }
 
+// What every tile of pass `pass` shares (all but the pixel rectangle).
+TileJob pass_job(const PathContext& ctx, const ImageSampler& sampler, Film& film, const RenderSettings& rs, int pass,
+                 const std::atomic<bool>& cancelled, const std::vector<uint8_t>& converged, WavefrontPool* wavefront) {
+    TileJob job;
+    job.ctx = &ctx;
+    job.sampler = &sampler;
+    job.film = &film;
+    job.border_x0 = rs.border_x0;
+    job.border_y0 = rs.border_y0;
+    job.sample = uint32_t(pass);
+    job.cancelled = &cancelled;
+    job.converged = converged.empty() ? nullptr : converged.data();
+    job.film_width = rs.border_width();
+    job.heatmaps = rs.heatmaps;
+    job.packet_width = rs.packet_width;
+    job.packet_height = rs.packet_height;
+    job.assembly = rs.assembly;
+    job.wavefront = wavefront;
+    return job;
+}
+
 // Tile t of `layout`: `pass_job` with the tile's pixel rectangle.
 TileJob place_tile(const TileJob& pass_job, const TileLayout& layout, int t, const RenderSettings& rs) {
     TileJob job = pass_job;
@@ -418,21 +439,7 @@ bool Renderer::render(const ProgressCallback& progress) {
         const ImageSampler sampler(samplers, uint32_t(pass), 1);
         const TileLayout& L = trial && pass == 0 ? single_layout : layout;
         const auto pass_start = Clock::now();
-        TileJob job;
-        job.ctx = &ctx;
-        job.sampler = &sampler;
-        job.film = &film_;
-        job.border_x0 = settings_.border_x0;
-        job.border_y0 = settings_.border_y0;
-        job.sample = uint32_t(pass);
-        job.cancelled = &cancelled_;
-        job.converged = converged_.empty() ? nullptr : converged_.data();
-        job.film_width = settings_.border_width();
-        job.heatmaps = settings_.heatmaps;
-        job.packet_width = settings_.packet_width;
-        job.packet_height = settings_.packet_height;
-        job.assembly = settings_.assembly;
-        job.wavefront = wavefront.get();
+        const TileJob job = pass_job(ctx, sampler, film_, settings_, pass, cancelled_, converged_, wavefront.get());
         render_tiles(arena, L, job, settings_, stats_, [&](int tiles_done) {
             if (reporter.due() && !reporter.report(pass, (pass + double(tiles_done) / L.tiles) / spp, stats_))
                 cancel();
