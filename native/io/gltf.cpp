@@ -339,7 +339,8 @@ private:
         std::string why;
         if (!gltf::read_floats(model_, pos_it->second, 3, out.positions, why)) return skip(why);
         out.vertex_count = out.positions.size() / 3;
-        if (mesh_vertices + out.vertex_count >= size_t(kInvalidIndex)) return skip("more than 2^32 vertices in one mesh");
+        if (mesh_vertices + out.vertex_count >= size_t(kInvalidIndex))
+            return skip("more than 2^32 vertices in one mesh");
         if (prim.indices >= 0) {
             if (!gltf::read_indices(model_, prim.indices, out.indices, why)) return skip(why);
         } else {
@@ -350,8 +351,9 @@ private:
         if (out.triangles == 0) return skip("no triangles");
         if (auto it = prim.attributes.find("NORMAL"); it != prim.attributes.end()) {
             // Unusable normals fall back to flat shading, as Blender does without normals.
-            if (!gltf::read_floats(model_, it->second, 3, out.normals, why) || out.normals.size() != out.positions.size())
-                out.normals.clear();
+            const bool usable = gltf::read_floats(model_, it->second, 3, out.normals, why) &&
+                                out.normals.size() == out.positions.size();
+            if (!usable) out.normals.clear();
         }
         return true;
     }

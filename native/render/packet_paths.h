@@ -391,7 +391,8 @@ inline void occlude(const PathContext& ctx, PathTile& tile, StreamScratch& scrat
     if (ctx.motion) {
         TraversalCounters mc;
         for (size_t i = 0; i < scratch.rays.size(); ++i)
-            if (!scratch.occluded[i] && motion_occluded(ctx, tile.states[size_t(scratch.path[i])], scratch.rays[i], &mc))
+            if (!scratch.occluded[i] &&
+                motion_occluded(ctx, tile.states[size_t(scratch.path[i])], scratch.rays[i], &mc))
                 scratch.occluded[i] = 1;
         book_work(st, bounce, mc);
     }

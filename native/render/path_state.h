@@ -171,6 +171,11 @@ inline Ray ao_ray(const PathContext& ctx, const PathSampler<ImageSampler>& ps, c
     return r;
 }
 
+// The steps of shade_hit() are separate functions for reading, not for the
+// compiler: they are always inlined, so the per-hit code is one body as it
+// was before they were named (no calls, no struct copies in the hot path).
+#define COHERENT_ALWAYS_INLINE __attribute__((always_inline)) inline
+
 namespace shading {
 
 // The point where s.ray met triangle `tri`, as shading sees it.
@@ -184,7 +189,7 @@ struct SurfacePoint {
     bool front;        // the ray hit the side ng points to
 };
 
-inline SurfacePoint surface_point(const Scene& scene, const PathState& s, const Hit& hit) {
+COHERENT_ALWAYS_INLINE SurfacePoint surface_point(const Scene& scene, const PathState& s, const Hit& hit) {
     SurfacePoint sp;
     sp.tri = hit.prim;
     const uint32_t tri = hit.prim;
@@ -226,7 +231,7 @@ inline SurfacePoint surface_point(const Scene& scene, const PathState& s, const 
 
 // Analytic lights are invisible to camera rays (measured in Cycles) and
 // transparent: every one in front of the surface (or of nothing) adds its emission.
-inline void add_lights_passed(const PathContext& ctx, PathState& s, bool found, const Hit& hit) {
+COHERENT_ALWAYS_INLINE void add_lights_passed(const PathContext& ctx, PathState& s, bool found, const Hit& hit) {
     if (s.bounce > 0)
         s.out.radiance += clamp_contribution(
             s.throughput * ctx.lights->hit_lights(s.ray.o, s.ray.d, found ? hit.t : s.ray.tmax, s.prev_pdf),
@@ -235,7 +240,7 @@ inline void add_lights_passed(const PathContext& ctx, PathState& s, bool found, 
 
 // s.ray left the scene.
 template <bool kLights>
-inline void shade_miss(const PathContext& ctx, PathState& s) {
+COHERENT_ALWAYS_INLINE void shade_miss(const PathContext& ctx, PathState& s) {
     const RenderSettings& rs = *ctx.settings;
     if (s.bounce == 0) {
         if (rs.integrator == Integrator::AmbientOcclusion) {
@@ -256,7 +261,7 @@ inline void shade_miss(const PathContext& ctx, PathState& s) {
 // Ambient occlusion at the first hit: the AO rays leave the side the camera
 // sees; the driver traces them and resolve_occlusion() adds 1 / ao_samples
 // per unoccluded ray.
-inline void queue_ao_rays(const PathContext& ctx, PathState& s, const SurfacePoint& sp) {
+COHERENT_ALWAYS_INLINE void queue_ao_rays(const PathContext& ctx, PathState& s, const SurfacePoint& sp) {
     s.ao_rays = ctx.settings->ao_samples;
     s.ao_normal = sp.ng_f;
     s.ao_origin = offset_ray_origin(sp.p, sp.p_error, sp.ng_f, sp.ng_f);
@@ -265,7 +270,8 @@ inline void queue_ao_rays(const PathContext& ctx, PathState& s, const SurfacePoi
 // An emissive surface hit: its emission, MIS-weighted against next-event
 // estimation from the previous vertex when that sampled lights.
 template <bool kLights>
-inline void add_emission(const PathContext& ctx, PathState& s, const Material& mat, const SurfacePoint& sp) {
+COHERENT_ALWAYS_INLINE void add_emission(const PathContext& ctx, PathState& s, const Material& mat,
+                                         const SurfacePoint& sp) {
     float w = 1.0f;
     if constexpr (kLights) {
         if (s.prev_pdf > 0.0f) w = power_heuristic(s.prev_pdf, ctx.lights->triangle_pdf(sp.tri, s.ray.o, sp.p, sp.ng));
@@ -274,7 +280,7 @@ inline void add_emission(const PathContext& ctx, PathState& s, const Material& m
 }
 
 // The shadow ray from sp towards light sample ls.
-inline Ray shadow_ray(const SurfacePoint& sp, const LightSample& ls) {
+COHERENT_ALWAYS_INLINE Ray shadow_ray(const SurfacePoint& sp, const LightSample& ls) {
     Ray shadow;
     shadow.o = offset_ray_origin(sp.p, sp.p_error, sp.ng_f, ls.wi);
     shadow.d = ls.wi;
@@ -298,7 +304,7 @@ inline Ray shadow_ray(const SurfacePoint& sp, const LightSample& ls) {
 
 // Next-event estimation: samples a light and queues the shadow ray with the
 // contribution it adds if unoccluded.
-inline void queue_shadow_ray(const PathContext& ctx, const PathSampler<ImageSampler>& ps, PathState& s,
+COHERENT_ALWAYS_INLINE void queue_shadow_ray(const PathContext& ctx, const PathSampler<ImageSampler>& ps, PathState& s,
                              const Bsdf& bsdf, const SurfacePoint& sp) {
     using D = PathDims;
     LightSample ls;
@@ -317,7 +323,8 @@ inline void queue_shadow_ray(const PathContext& ctx, const PathSampler<ImageSamp
 
 // Russian roulette on the path throughput (Cycles: sqrt of the max
 // component); returns whether the path survives, its throughput rescaled.
-inline bool survive_roulette(const PathContext& ctx, const PathSampler<ImageSampler>& ps, PathState& s) {
+COHERENT_ALWAYS_INLINE bool survive_roulette(const PathContext& ctx, const PathSampler<ImageSampler>& ps,
+                                             PathState& s) {
     using D = PathDims;
     if (s.bounce < ctx.settings->rr_min_bounces) return true;
     const float q = std::min(1.0f, std::sqrt(max_component(s.throughput)));
@@ -328,7 +335,7 @@ inline bool survive_roulette(const PathContext& ctx, const PathSampler<ImageSamp
 
 // Counts the bounce of BSDF sample `bs` and decides whether its ray is the
 // path's last (a bounce limit or the integrator's continuation rule).
-inline void count_bounce(const RenderSettings& rs, PathState& s, const BsdfSample& bs) {
+COHERENT_ALWAYS_INLINE void count_bounce(const RenderSettings& rs, PathState& s, const BsdfSample& bs) {
     ++s.bounce;
     switch (bs.type) {
         case RayType::Diffuse: ++s.diffuse_bounce; break;
@@ -343,7 +350,7 @@ inline void count_bounce(const RenderSettings& rs, PathState& s, const BsdfSampl
 // Samples the BSDF and sets up the next extension ray (s.alive), unless the
 // sample fails or carries no throughput.
 template <bool kGlass>
-inline void sample_next_ray(const PathContext& ctx, const PathSampler<ImageSampler>& ps, PathState& s,
+COHERENT_ALWAYS_INLINE void sample_next_ray(const PathContext& ctx, const PathSampler<ImageSampler>& ps, PathState& s,
                             const Bsdf& bsdf, const SurfacePoint& sp) {
     using D = PathDims;
     BsdfSample bs;
@@ -411,15 +418,16 @@ inline void shade_hit(const PathContext& ctx, const PathSampler<ImageSampler>& p
 // occlusion_ray(.., k) for k < occlusion_ray_count(s), in any order, then
 // call resolve_occlusion() with how many were unoccluded, before tracing the
 // path's next extension ray.
-inline int occlusion_ray_count(const PathState& s) { return s.has_shadow ? 1 : s.ao_rays; }
+COHERENT_ALWAYS_INLINE int occlusion_ray_count(const PathState& s) { return s.has_shadow ? 1 : s.ao_rays; }
 
-inline Ray occlusion_ray(const PathContext& ctx, const PathSampler<ImageSampler>& ps, const PathState& s, int k) {
+COHERENT_ALWAYS_INLINE Ray occlusion_ray(const PathContext& ctx, const PathSampler<ImageSampler>& ps,
+                                         const PathState& s, int k) {
     return s.has_shadow ? s.shadow : ao_ray(ctx, ps, s, k);
 }
 
 // The shadow ray adds its contribution if unoccluded; the AO rays add
 // 1 / ao_rays each. Afterwards the path has no occlusion ray queued.
-inline void resolve_occlusion(PathState& s, int unoccluded) {
+COHERENT_ALWAYS_INLINE void resolve_occlusion(PathState& s, int unoccluded) {
     if (s.has_shadow) {
         if (unoccluded > 0) s.out.radiance += s.shadow_contribution;
         s.has_shadow = false;

@@ -69,8 +69,8 @@ inline void book_single_ray(RenderStats& st, int bounce, RayType type, const Tra
 }
 
 // Traces a path's occlusion rays one at a time and resolves them.
-inline void trace_occlusion_rays(const PathContext& ctx, const PathSampler<ImageSampler>& ps, PathState& s,
-                                 int bounce, RenderStats& st, uint32_t* node_visits) {
+COHERENT_ALWAYS_INLINE void trace_occlusion_rays(const PathContext& ctx, const PathSampler<ImageSampler>& ps,
+                                                 PathState& s, int bounce, RenderStats& st, uint32_t* node_visits) {
     const int rays = occlusion_ray_count(s);
     if (rays == 0) return;
     int unoccluded = 0;
