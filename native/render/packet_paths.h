@@ -29,7 +29,6 @@
 #include "../accel/ray_packet.h"
 #include "../accel/ray_stream.h"
 #include "path_state.h"
-#include "path_tracer.h"
 
 namespace coherent {
 

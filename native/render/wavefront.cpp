@@ -7,7 +7,7 @@
 #include "../accel/ray_packet.h"
 #include "../core/thread_time.h"
 #include "kernel_variants.h"
-#include "path_tracer.h"
+#include "path_state.h"
 
 namespace coherent {
 
