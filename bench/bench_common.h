@@ -22,6 +22,7 @@
 
 #include "accel/bvh.h"
 #include "core/ray.h"
+#include "core/thread_time.h"
 #include "core/vec.h"
 #include "io/gltf.h"
 #include "scene/scene.h"
@@ -168,14 +169,6 @@ inline void run_blocks(size_t n, int threads, const std::function<void(size_t, s
         tbb::parallel_for(tbb::blocked_range<size_t>(0, n, grain),
                           [&](const tbb::blocked_range<size_t>& r) { body(r.begin(), r.end()); });
     });
-}
-
-// Seconds on the calling thread's CPU clock: on a shared machine it leaves out
-// the time this thread spent descheduled, which wall time would count.
-inline double thread_cpu_seconds() {
-    timespec ts;
-    clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
-    return double(ts.tv_sec) + 1e-9 * double(ts.tv_nsec);
 }
 
 inline double wall_seconds() {

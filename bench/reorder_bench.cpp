@@ -273,10 +273,10 @@ void sort_experiment(const std::string& name, const PathContext& ctx, const Samp
             for (int x = 0; x < w; ++x) {
                 const PathSampler<ImageSampler> ps(sampler, uint32_t(x), uint32_t(y), 0);
                 PathState s;
-                start_path<ImageSampler, false>(ctx, ps, x, y, s);
+                start_path<false>(ctx, ps, x, y, s);
                 Hit hit;
                 const bool found = ctx.bvh->intersect(s.ray, hit);
-                shade_hit<ImageSampler, false, false>(ctx, ps, s, found, hit);
+                shade_hit<false, false>(ctx, ps, s, found, hit);
                 for (int k = 0; k < S; ++k) {
                     const RayTag tag{uint16_t(x), uint16_t(y), uint32_t(k + 1)};
                     if (k < s.ao_rays) {

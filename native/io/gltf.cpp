@@ -313,139 +313,143 @@ private:
         has_camera_ = true;
     }
 
+    // One primitive's data, before concatenation into its mesh.
+    struct PrimitiveData {
+        std::vector<float> positions;  // vertex_count x 3
+        std::vector<uint32_t> indices;  // local to the primitive; a trailing partial triangle is ignored
+        std::vector<float> normals;     // per vertex, or empty (unusable normals fall back to flat shading)
+        size_t vertex_count = 0, triangles = 0;
+    };
+
+    // Reads a primitive of a mesh that already holds `mesh_vertices`
+    // vertices. One that cannot be used is reported in
+    // dropped.skipped_meshes (as `where`) and false returned.
+    bool read_primitive(const tinygltf::Primitive& prim, const std::string& where, size_t mesh_vertices,
+                        PrimitiveData& out) {
+        auto skip = [&](const std::string& why) {
+            scene_.dropped.skipped_meshes.push_back(where + " (" + why + ")");
+            return false;
+        };
+        if (prim.mode != TINYGLTF_MODE_TRIANGLES && prim.mode != -1)
+            return skip("mode " + std::to_string(prim.mode) + " is not TRIANGLES; only triangles are supported");
+        if (get_extension(prim.extensions, "KHR_draco_mesh_compression"))
+            return skip("KHR_draco_mesh_compression is not supported");
+        auto pos_it = prim.attributes.find("POSITION");
+        if (pos_it == prim.attributes.end()) return skip("no POSITION attribute");
+        std::string why;
+        if (!gltf::read_floats(model_, pos_it->second, 3, out.positions, why)) return skip(why);
+        out.vertex_count = out.positions.size() / 3;
+        if (mesh_vertices + out.vertex_count >= size_t(kInvalidIndex))
+            return skip("more than 2^32 vertices in one mesh");
+        if (prim.indices >= 0) {
+            if (!gltf::read_indices(model_, prim.indices, out.indices, why)) return skip(why);
+        } else {
+            out.indices.resize(out.vertex_count);
+            for (size_t i = 0; i < out.vertex_count; ++i) out.indices[i] = uint32_t(i);
+        }
+        out.triangles = out.indices.size() / 3;
+        if (out.triangles == 0) return skip("no triangles");
+        if (auto it = prim.attributes.find("NORMAL"); it != prim.attributes.end()) {
+            // Unusable normals fall back to flat shading, as Blender does without normals.
+            const bool usable = gltf::read_floats(model_, it->second, 3, out.normals, why) &&
+                                out.normals.size() == out.positions.size();
+            if (!usable) out.normals.clear();
+        }
+        return true;
+    }
+
+    // Material slot of a primitive. An invalid material index gets an
+    // invalid slot, which add_mesh counts and replaces by the default.
+    uint32_t primitive_slot(const tinygltf::Primitive& prim, std::vector<uint32_t>& slots) {
+        if (prim.material < 0) return slot_for(slots, 0);
+        if (size_t(prim.material) >= material_index_.size()) return kInvalidIndex;
+        if (material_emissive_[size_t(prim.material)]) emissive_used_ = true;
+        return slot_for(slots, material_index_[size_t(prim.material)]);
+    }
+
+    // Where each primitive concatenated into a mesh starts, and its own
+    // per-vertex normals (empty where it has none).
+    struct PrimitiveRanges {
+        std::vector<size_t> first_triangle;
+        std::vector<uint32_t> vertex_base;
+        std::vector<std::vector<float>> normals;
+    };
+
+    // Unit normal of triangle `tri` (mesh vertex indices), +z when it has
+    // no area or an index is invalid.
+    static Vec3f face_normal(const std::vector<float>& positions, const uint32_t* tri) {
+        Vec3f face{0.0f, 0.0f, 1.0f};
+        if (tri[0] == kInvalidIndex || tri[1] == kInvalidIndex || tri[2] == kInvalidIndex) return face;
+        const auto vertex = [&](uint32_t v) {
+            return Vec3f{positions[size_t(v) * 3], positions[size_t(v) * 3 + 1], positions[size_t(v) * 3 + 2]};
+        };
+        const Vec3f a = vertex(tri[0]);
+        const Vec3f c = cross(vertex(tri[1]) - a, vertex(tri[2]) - a);
+        const float len = length(c);
+        if (len > 0.0f && std::isfinite(len)) face = c / len;
+        return face;
+    }
+
+    // Per-corner normals, as MeshInput expects. Corners without a usable
+    // file normal get the face normal (flat shading, Blender's default).
+    static std::vector<float> corner_normals(const std::vector<float>& positions, const std::vector<uint32_t>& indices,
+                                             const PrimitiveRanges& prims) {
+        const size_t tri_count = indices.size() / 3;
+        std::vector<float> normals(tri_count * 9);
+        size_t prim = 0;
+        for (size_t t = 0; t < tri_count; ++t) {
+            while (prim + 1 < prims.first_triangle.size() && t >= prims.first_triangle[prim + 1]) ++prim;
+            const std::vector<float>& pn = prims.normals[prim];
+            const uint32_t* tri = &indices[t * 3];
+            const bool valid = tri[0] != kInvalidIndex && tri[1] != kInvalidIndex && tri[2] != kInvalidIndex;
+            const Vec3f face = face_normal(positions, tri);
+            for (int k = 0; k < 3; ++k) {
+                Vec3f nk = face;
+                if (valid && !pn.empty()) {
+                    const size_t local = size_t(tri[k] - prims.vertex_base[prim]);
+                    const Vec3f file_normal{pn[local * 3], pn[local * 3 + 1], pn[local * 3 + 2]};
+                    const float len = length(file_normal);
+                    if (len > 1e-12f && std::isfinite(len)) nk = file_normal / len;
+                }
+                normals[t * 9 + size_t(k) * 3 + 0] = nk.x;
+                normals[t * 9 + size_t(k) * 3 + 1] = nk.y;
+                normals[t * 9 + size_t(k) * 3 + 2] = nk.z;
+            }
+        }
+        return normals;
+    }
+
     // One glTF mesh -> one object's arrays; each primitive is a material
     // slot of it. Primitives that cannot be used are reported in
     // dropped.skipped_meshes and the rest of the mesh is kept.
     DecodedMesh decode_mesh(size_t mesh_index) {
         const tinygltf::Mesh& mesh = model_.meshes[mesh_index];
-        const std::string name = mesh.name.empty() ? "mesh " + std::to_string(mesh_index) : mesh.name;
-
         DecodedMesh out;
-        out.name = name;
-        std::vector<float> positions;
-        std::vector<uint32_t> indices, material_ids;
-        std::vector<float> normals;  // per corner, filled only if some primitive has normals
+        out.name = mesh.name.empty() ? "mesh " + std::to_string(mesh_index) : mesh.name;
+        PrimitiveRanges prims;
         bool any_normals = false;
-        std::vector<std::vector<float>> prim_normals;  // per primitive, per vertex (may be empty)
-        std::vector<size_t> prim_first_triangle;  // per used primitive: first triangle
-        std::vector<uint32_t> prim_vertex_base;    // per used primitive: first vertex
-
-        if (mesh.primitives.empty()) scene_.dropped.skipped_meshes.push_back(name + " (no primitives)");
+        if (mesh.primitives.empty()) scene_.dropped.skipped_meshes.push_back(out.name + " (no primitives)");
         for (size_t pi = 0; pi < mesh.primitives.size(); ++pi) {
             const tinygltf::Primitive& prim = mesh.primitives[pi];
-            const std::string where = name + " primitive " + std::to_string(pi);
-            if (prim.mode != TINYGLTF_MODE_TRIANGLES && prim.mode != -1) {
-                scene_.dropped.skipped_meshes.push_back(where + " (mode " + std::to_string(prim.mode) +
-                                                        " is not TRIANGLES; only triangles are supported)");
+            PrimitiveData d;
+            if (!read_primitive(prim, out.name + " primitive " + std::to_string(pi), out.positions.size() / 3, d))
                 continue;
-            }
-            if (get_extension(prim.extensions, "KHR_draco_mesh_compression")) {
-                scene_.dropped.skipped_meshes.push_back(where + " (KHR_draco_mesh_compression is not supported)");
-                continue;
-            }
-            auto pos_it = prim.attributes.find("POSITION");
-            if (pos_it == prim.attributes.end()) {
-                scene_.dropped.skipped_meshes.push_back(where + " (no POSITION attribute)");
-                continue;
-            }
-            std::string why;
-            std::vector<float> p;
-            if (!gltf::read_floats(model_, pos_it->second, 3, p, why)) {
-                scene_.dropped.skipped_meshes.push_back(where + " (" + why + ")");
-                continue;
-            }
-            const size_t vertex_count = p.size() / 3;
-            if (positions.size() / 3 + vertex_count >= size_t(kInvalidIndex)) {
-                scene_.dropped.skipped_meshes.push_back(where + " (more than 2^32 vertices in one mesh)");
-                continue;
-            }
-            std::vector<uint32_t> idx;
-            if (prim.indices >= 0) {
-                if (!gltf::read_indices(model_, prim.indices, idx, why)) {
-                    scene_.dropped.skipped_meshes.push_back(where + " (" + why + ")");
-                    continue;
-                }
-            } else {
-                idx.resize(vertex_count);
-                for (size_t i = 0; i < vertex_count; ++i) idx[i] = uint32_t(i);
-            }
-            const size_t tris = idx.size() / 3;  // a trailing partial triangle is ignored
-            if (tris == 0) {
-                scene_.dropped.skipped_meshes.push_back(where + " (no triangles)");
-                continue;
-            }
-            std::vector<float> n;
-            if (auto it = prim.attributes.find("NORMAL"); it != prim.attributes.end()) {
-                // Unusable normals fall back to flat shading, as Blender does without normals.
-                if (!gltf::read_floats(model_, it->second, 3, n, why) || n.size() != p.size()) n.clear();
-            }
-            any_normals |= !n.empty();
-
-            // Material slot of this primitive. An invalid material index gets an
-            // invalid slot, which add_mesh counts and replaces by the default.
-            uint32_t slot = kInvalidIndex;
-            if (prim.material < 0) {
-                slot = slot_for(out.material_slots, 0);
-            } else if (size_t(prim.material) < material_index_.size()) {
-                slot = slot_for(out.material_slots, material_index_[size_t(prim.material)]);
-                if (material_emissive_[size_t(prim.material)]) emissive_used_ = true;
-            }
-
+            const uint32_t slot = primitive_slot(prim, out.material_slots);
             // Concatenate: indices are rebased into the mesh's vertex array. An
             // index outside this primitive's own vertices becomes kInvalidIndex,
             // which add_mesh drops and counts as out of range (it must not reach
             // another primitive's vertices).
-            const uint32_t base = uint32_t(positions.size() / 3);
-            prim_first_triangle.push_back(indices.size() / 3);
-            prim_vertex_base.push_back(base);
-            for (size_t i = 0; i < tris * 3; ++i)
-                indices.push_back(idx[i] < vertex_count ? base + idx[i] : kInvalidIndex);
-            material_ids.insert(material_ids.end(), tris, slot);
-            positions.insert(positions.end(), p.begin(), p.end());
-            prim_normals.push_back(std::move(n));
+            const uint32_t base = uint32_t(out.positions.size() / 3);
+            prims.first_triangle.push_back(out.indices.size() / 3);
+            prims.vertex_base.push_back(base);
+            for (size_t i = 0; i < d.triangles * 3; ++i)
+                out.indices.push_back(d.indices[i] < d.vertex_count ? base + d.indices[i] : kInvalidIndex);
+            out.material_ids.insert(out.material_ids.end(), d.triangles, slot);
+            out.positions.insert(out.positions.end(), d.positions.begin(), d.positions.end());
+            any_normals |= !d.normals.empty();
+            prims.normals.push_back(std::move(d.normals));
         }
-        if (indices.empty()) return out;
-
-        if (any_normals) {
-            // Per-corner normals, as MeshInput expects. Corners without a usable
-            // file normal get the face normal (flat shading, Blender's default).
-            const size_t tri_count = indices.size() / 3;
-            normals.resize(tri_count * 9);
-            size_t prim = 0;
-            for (size_t t = 0; t < tri_count; ++t) {
-                while (prim + 1 < prim_first_triangle.size() && t >= prim_first_triangle[prim + 1]) ++prim;
-                const std::vector<float>& pn = prim_normals[prim];
-                const uint32_t* tri = &indices[t * 3];
-                const bool valid = tri[0] != kInvalidIndex && tri[1] != kInvalidIndex && tri[2] != kInvalidIndex;
-                Vec3f face{0.0f, 0.0f, 1.0f};
-                if (valid) {
-                    const auto vertex = [&](uint32_t v) {
-                        return Vec3f{positions[size_t(v) * 3], positions[size_t(v) * 3 + 1], positions[size_t(v) * 3 + 2]};
-                    };
-                    const Vec3f a = vertex(tri[0]);
-                    const Vec3f c = cross(vertex(tri[1]) - a, vertex(tri[2]) - a);
-                    const float len = length(c);
-                    if (len > 0.0f && std::isfinite(len)) face = c / len;
-                }
-                for (int k = 0; k < 3; ++k) {
-                    Vec3f nk = face;
-                    if (valid && !pn.empty()) {
-                        const size_t local = size_t(tri[k] - prim_vertex_base[prim]);
-                        const Vec3f file_normal{pn[local * 3], pn[local * 3 + 1], pn[local * 3 + 2]};
-                        const float len = length(file_normal);
-                        if (len > 1e-12f && std::isfinite(len)) nk = file_normal / len;
-                    }
-                    normals[t * 9 + size_t(k) * 3 + 0] = nk.x;
-                    normals[t * 9 + size_t(k) * 3 + 1] = nk.y;
-                    normals[t * 9 + size_t(k) * 3 + 2] = nk.z;
-                }
-            }
-        }
-
-        out.positions = std::move(positions);
-        out.indices = std::move(indices);
-        out.normals = std::move(normals);
-        out.material_ids = std::move(material_ids);
+        if (!out.indices.empty() && any_normals) out.normals = corner_normals(out.positions, out.indices, prims);
         return out;
     }
 

@@ -138,58 +138,73 @@ bool is_rect(const LightRecord& l) { return l.shape == AreaShape::Square || l.sh
 
 }  // namespace
 
+namespace {
+
+// The record of analytic light `in`; false for one that emits nothing.
+bool light_record(const Light& in, LightRecord& l) {
+    if (!(in.power > 0.0f) || is_black(in.color) || !is_finite(in.color) || !std::isfinite(in.power)) return false;
+    l.type = in.type;
+    l.position = in.position;
+    l.direction = safe_normalize(in.direction, Vec3f(0.0f, 0.0f, -1.0f));
+    const Vec3f flux = in.color * in.power;
+    switch (in.type) {
+        case LightType::Point:
+        case LightType::Spot: {
+            const Vec3f intensity = flux * (1.0f / (4.0f * kPi));  // W/sr, measured
+            l.radius = std::max(in.radius, 0.0f);
+            l.radiance = l.radius > 0.0f ? intensity / (kPi * l.radius * l.radius) : intensity;
+            if (in.type == LightType::Spot) {
+                l.cos_half_spot = std::cos(0.5f * std::clamp(in.spot_size, 0.0f, kPi));
+                l.spot_smooth = (1.0f - l.cos_half_spot) * std::clamp(in.spot_blend, 0.0f, 1.0f);
+            }
+            return true;
+        }
+        case LightType::Sun: {
+            const float half = 0.5f * std::clamp(in.sun_angle, 0.0f, kPi);
+            if (half > 0.0f) {
+                const float s = std::sin(0.5f * half);
+                const float omc = 2.0f * s * s;  // 1 - cos(half)
+                l.cos_half_sun = 1.0f - omc;
+                l.sun_solid_angle = 2.0f * kPi * omc;
+                l.radiance = flux / l.sun_solid_angle;  // measured: radiance = S / cone solid angle
+            } else {
+                l.radiance = flux;  // irradiance on a surface facing the sun
+            }
+            return true;
+        }
+        case LightType::Area: {
+            l.shape = in.shape;
+            l.axis_u = safe_normalize(in.axis_u, Vec3f(1.0f, 0.0f, 0.0f));
+            l.axis_v = safe_normalize(in.axis_v, Vec3f(0.0f, 1.0f, 0.0f));
+            const bool square = in.shape == AreaShape::Square || in.shape == AreaShape::Disk;
+            const float su = std::max(in.size_u, 0.0f), sv = square ? su : std::max(in.size_v, 0.0f);
+            l.half_u = 0.5f * su;
+            l.half_v = 0.5f * sv;
+            const bool round = in.shape == AreaShape::Disk || in.shape == AreaShape::Ellipse;
+            l.area = su * sv * (round ? 0.25f * kPi : 1.0f);
+            if (!(l.area > 0.0f)) return false;
+            l.radiance = flux / (4.0f * l.area);  // measured: Cycles 3.4 area radiance = P / (4 A)
+            return true;
+        }
+    }
+    return true;
+}
+
+}  // namespace
+
 LightSet::LightSet(const Scene& scene) : scene_(&scene) {
     for (const Light& in : scene.lights) {
-        if (!(in.power > 0.0f) || is_black(in.color) || !is_finite(in.color) || !std::isfinite(in.power)) continue;
         LightRecord l;
-        l.type = in.type;
-        l.position = in.position;
-        l.direction = safe_normalize(in.direction, Vec3f(0.0f, 0.0f, -1.0f));
-        const Vec3f flux = in.color * in.power;
-        switch (in.type) {
-            case LightType::Point:
-            case LightType::Spot: {
-                const Vec3f intensity = flux * (1.0f / (4.0f * kPi));  // W/sr, measured
-                l.radius = std::max(in.radius, 0.0f);
-                l.radiance = l.radius > 0.0f ? intensity / (kPi * l.radius * l.radius) : intensity;
-                if (in.type == LightType::Spot) {
-                    l.cos_half_spot = std::cos(0.5f * std::clamp(in.spot_size, 0.0f, kPi));
-                    l.spot_smooth = (1.0f - l.cos_half_spot) * std::clamp(in.spot_blend, 0.0f, 1.0f);
-                }
-                break;
-            }
-            case LightType::Sun: {
-                const float half = 0.5f * std::clamp(in.sun_angle, 0.0f, kPi);
-                if (half > 0.0f) {
-                    const float s = std::sin(0.5f * half);
-                    const float omc = 2.0f * s * s;  // 1 - cos(half)
-                    l.cos_half_sun = 1.0f - omc;
-                    l.sun_solid_angle = 2.0f * kPi * omc;
-                    l.radiance = flux / l.sun_solid_angle;  // measured: radiance = S / cone solid angle
-                } else {
-                    l.radiance = flux;  // irradiance on a surface facing the sun
-                }
-                break;
-            }
-            case LightType::Area: {
-                l.shape = in.shape;
-                l.axis_u = safe_normalize(in.axis_u, Vec3f(1.0f, 0.0f, 0.0f));
-                l.axis_v = safe_normalize(in.axis_v, Vec3f(0.0f, 1.0f, 0.0f));
-                const bool square = in.shape == AreaShape::Square || in.shape == AreaShape::Disk;
-                const float su = std::max(in.size_u, 0.0f), sv = square ? su : std::max(in.size_v, 0.0f);
-                l.half_u = 0.5f * su;
-                l.half_v = 0.5f * sv;
-                const bool round = in.shape == AreaShape::Disk || in.shape == AreaShape::Ellipse;
-                l.area = su * sv * (round ? 0.25f * kPi : 1.0f);
-                if (!(l.area > 0.0f)) continue;
-                l.radiance = flux / (4.0f * l.area);  // measured: Cycles 3.4 area radiance = P / (4 A)
-                break;
-            }
-        }
-        lights_.push_back(l);
+        if (light_record(in, l)) lights_.push_back(l);
     }
+    pick_triangles_by_power(scene);
+    world_color_ = scene.world_color;
+    world_ = !is_black(world_color_) && is_finite(world_color_);
+    units_ = int(lights_.size()) + (triangles_ ? 1 : 0) + (world_ ? 1 : 0);
+    unit_pdf_ = units_ > 0 ? 1.0f / float(units_) : 0.0f;
+}
 
-    // Emissive triangles by power.
+void LightSet::pick_triangles_by_power(const Scene& scene) {
     tri_pick_.assign(scene.triangle_count(), 0.0f);
     double total = 0.0;
     std::vector<double> power;
@@ -203,28 +218,110 @@ LightSet::LightSet(const Scene& scene) : scene_(&scene) {
         power.push_back(p);
         total += p;
     }
-    if (total > 0.0) {
-        triangles_ = true;
-        double acc = 0.0;
-        tri_cdf_.resize(power.size());
-        for (size_t i = 0; i < power.size(); ++i) {
-            acc += power[i];
-            tri_cdf_[i] = float(acc / total);
-            tri_pick_[tri_ids_[i]] = float(power[i] / total);
-        }
-        tri_cdf_.back() = 1.0f;
+    if (!(total > 0.0)) return;
+    triangles_ = true;
+    double acc = 0.0;
+    tri_cdf_.resize(power.size());
+    for (size_t i = 0; i < power.size(); ++i) {
+        acc += power[i];
+        tri_cdf_[i] = float(acc / total);
+        tri_pick_[tri_ids_[i]] = float(power[i] / total);
     }
-
-    world_color_ = scene.world_color;
-    world_ = !is_black(world_color_) && is_finite(world_color_);
-    units_ = int(lights_.size()) + (triangles_ ? 1 : 0) + (world_ ? 1 : 0);
-    unit_pdf_ = units_ > 0 ? 1.0f / float(units_) : 0.0f;
+    tri_cdf_.back() = 1.0f;
 }
 
 float LightSet::world_pdf(const Vec3f& d, const Vec3f& n, bool transmissive) const {
     if (transmissive) return 1.0f / (4.0f * kPi);
     return std::max(0.0f, dot(d, n)) * kInvPi;
 }
+
+namespace {
+
+// Point and spot lights: a sphere of l.radius, by the cone it subtends, or a point.
+bool sample_point_light(const LightRecord& l, const Vec3f& p, float u1, float u2, float unit_pdf, LightSample& ls) {
+    const Vec3f to = l.position - p;
+    const float d2 = length_squared(to);
+    const float d = std::sqrt(d2);
+    if (!(d > 0.0f) || !std::isfinite(d2)) return false;
+    const Vec3f w = to / d;
+    if (l.radius > 0.0f) {
+        const float omc = disc_one_minus_cos(l.radius, d);
+        ls.wi = sample_cone(w, omc, u1, u2);
+        const float cos_t = dot(ls.wi, w);
+        ls.dist = d / std::max(cos_t, 1e-6f);
+        ls.li = l.radiance * spot_attenuation(l, -ls.wi);
+        ls.pdf = unit_pdf / (2.0f * kPi * omc);
+    } else {
+        ls.wi = w;
+        ls.dist = d;
+        ls.li = l.radiance * (spot_attenuation(l, -w) / d2);
+        ls.delta = true;
+        ls.pdf = unit_pdf;
+    }
+    return true;
+}
+
+// Sun: the cone of its angle, or one direction.
+void sample_sun(const LightRecord& l, float u1, float u2, float unit_pdf, LightSample& ls) {
+    if (l.sun_solid_angle > 0.0f) {
+        ls.wi = sample_cone(-l.direction, 1.0f - l.cos_half_sun, u1, u2);
+        ls.pdf = unit_pdf / l.sun_solid_angle;
+    } else {
+        ls.wi = -l.direction;
+        ls.delta = true;
+        ls.pdf = unit_pdf;
+    }
+    ls.li = l.radiance;
+    ls.dist = kInf;
+}
+
+// Area lights, one-sided: rectangles by solid angle where the spherical
+// rectangle can be formed, else (and disks, ellipses) by area.
+bool sample_area_light(const LightRecord& l, const Vec3f& p, float u1, float u2, float unit_pdf, LightSample& ls) {
+    if (!(dot(p - l.position, l.direction) > 0.0f)) return false;  // behind the emitting side
+    SphericalRect sr;
+    const bool by_solid_angle = is_rect(l) && make_spherical_rect(p, l, sr);
+    Vec3f q;
+    if (by_solid_angle) {
+        q = sample_spherical_rect(p, sr, u1, u2);
+    } else {
+        Vec2f xy;
+        if (l.shape == AreaShape::Disk || l.shape == AreaShape::Ellipse) {
+            xy = concentric_disk(u1, u2);
+        } else {
+            xy = {2.0f * u1 - 1.0f, 2.0f * u2 - 1.0f};
+        }
+        q = l.position + l.axis_u * (xy.x * l.half_u) + l.axis_v * (xy.y * l.half_v);
+    }
+    const Vec3f to = q - p;
+    const float d2 = length_squared(to);
+    const float d = std::sqrt(d2);
+    if (!(d > 0.0f)) return false;
+    ls.wi = to / d;
+    const float cos_l = -dot(ls.wi, l.direction);
+    if (!(cos_l > 0.0f)) return false;  // one-sided: the back emits nothing
+    ls.dist = d;
+    ls.li = l.radiance;
+    ls.pdf = by_solid_angle ? unit_pdf / float(sr.solid_angle) : unit_pdf * d2 / (l.area * cos_l);
+    return true;
+}
+
+bool sample_analytic_light(const LightRecord& l, const Vec3f& p, float u1, float u2, float unit_pdf,
+                           LightSample& ls) {
+    switch (l.type) {
+        case LightType::Point:
+        case LightType::Spot:
+            if (!sample_point_light(l, p, u1, u2, unit_pdf, ls)) return false;
+            break;
+        case LightType::Sun: sample_sun(l, u1, u2, unit_pdf, ls); break;
+        case LightType::Area:
+            if (!sample_area_light(l, p, u1, u2, unit_pdf, ls)) return false;
+            break;
+    }
+    return ls.pdf > 0.0f && std::isfinite(ls.pdf);
+}
+
+}  // namespace
 
 bool LightSet::sample(const Vec3f& p, const Vec3f& n, bool transmissive, float u_pick, float u1, float u2,
                       LightSample& ls) const {
@@ -233,81 +330,13 @@ bool LightSet::sample(const Vec3f& p, const Vec3f& n, bool transmissive, float u
     const int unit = std::min(int(scaled), units_ - 1);
     const float u_rest = std::clamp(scaled - float(unit), 0.0f, 0.99999994f);
     ls = LightSample{};
-
-    if (unit < int(lights_.size())) {
-        const LightRecord& l = lights_[unit];
-        switch (l.type) {
-            case LightType::Point:
-            case LightType::Spot: {
-                const Vec3f to = l.position - p;
-                const float d2 = length_squared(to);
-                const float d = std::sqrt(d2);
-                if (!(d > 0.0f) || !std::isfinite(d2)) return false;
-                const Vec3f w = to / d;
-                if (l.radius > 0.0f) {
-                    const float omc = disc_one_minus_cos(l.radius, d);
-                    ls.wi = sample_cone(w, omc, u1, u2);
-                    const float cos_t = dot(ls.wi, w);
-                    ls.dist = d / std::max(cos_t, 1e-6f);
-                    ls.li = l.radiance * spot_attenuation(l, -ls.wi);
-                    ls.pdf = unit_pdf_ / (2.0f * kPi * omc);
-                } else {
-                    ls.wi = w;
-                    ls.dist = d;
-                    ls.li = l.radiance * (spot_attenuation(l, -w) / d2);
-                    ls.delta = true;
-                    ls.pdf = unit_pdf_;
-                }
-                break;
-            }
-            case LightType::Sun: {
-                if (l.sun_solid_angle > 0.0f) {
-                    ls.wi = sample_cone(-l.direction, 1.0f - l.cos_half_sun, u1, u2);
-                    ls.pdf = unit_pdf_ / l.sun_solid_angle;
-                } else {
-                    ls.wi = -l.direction;
-                    ls.delta = true;
-                    ls.pdf = unit_pdf_;
-                }
-                ls.li = l.radiance;
-                ls.dist = kInf;
-                break;
-            }
-            case LightType::Area: {
-                if (!(dot(p - l.position, l.direction) > 0.0f)) return false;  // behind the emitting side
-                SphericalRect sr;
-                const bool by_solid_angle = is_rect(l) && make_spherical_rect(p, l, sr);
-                Vec3f q;
-                if (by_solid_angle) {
-                    q = sample_spherical_rect(p, sr, u1, u2);
-                } else {
-                    Vec2f xy;
-                    if (l.shape == AreaShape::Disk || l.shape == AreaShape::Ellipse) {
-                        xy = concentric_disk(u1, u2);
-                    } else {
-                        xy = {2.0f * u1 - 1.0f, 2.0f * u2 - 1.0f};
-                    }
-                    q = l.position + l.axis_u * (xy.x * l.half_u) + l.axis_v * (xy.y * l.half_v);
-                }
-                const Vec3f to = q - p;
-                const float d2 = length_squared(to);
-                const float d = std::sqrt(d2);
-                if (!(d > 0.0f)) return false;
-                ls.wi = to / d;
-                const float cos_l = -dot(ls.wi, l.direction);
-                if (!(cos_l > 0.0f)) return false;  // one-sided: the back emits nothing
-                ls.dist = d;
-                ls.li = l.radiance;
-                ls.pdf = by_solid_angle ? unit_pdf_ / float(sr.solid_angle) : unit_pdf_ * d2 / (l.area * cos_l);
-                break;
-            }
-        }
-        return ls.pdf > 0.0f && std::isfinite(ls.pdf);
-    }
-
+    if (unit < int(lights_.size())) return sample_analytic_light(lights_[unit], p, u1, u2, unit_pdf_, ls);
     if (triangles_ && unit == int(lights_.size())) return sample_triangle(p, u_rest, u1, u2, ls);
+    return sample_world(n, transmissive, u1, u2, ls);
+}
 
-    // World: cosine around the shading normal, or the whole sphere for BSDFs that transmit.
+// World: cosine around the shading normal, or the whole sphere for BSDFs that transmit.
+bool LightSet::sample_world(const Vec3f& n, bool transmissive, float u1, float u2, LightSample& ls) const {
     if (transmissive) {
         const float z = 1.0f - 2.0f * u1;
         const float r = std::sqrt(std::max(0.0f, 1.0f - z * z));

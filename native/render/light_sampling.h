@@ -84,6 +84,9 @@ public:
 private:
     float world_pdf(const Vec3f& d, const Vec3f& n, bool transmissive) const;
     bool sample_triangle(const Vec3f& p, float u_pick, float u1, float u2, LightSample& ls) const;
+    bool sample_world(const Vec3f& n, bool transmissive, float u1, float u2, LightSample& ls) const;
+    // The emissive triangles' pick distribution (tri_*), by power.
+    void pick_triangles_by_power(const Scene& scene);
 
     const Scene* scene_ = nullptr;
     std::vector<LightRecord> lights_;

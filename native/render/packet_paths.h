@@ -1,7 +1,9 @@
-// Batched driver of the path state machine (path_state.h): the paths of one
-// tile advance bounce by bounce, and after every bounce their rays are
-// gathered into SIMD packets (Boulos et al. 2007 section 3.2) within each
-// packet of pixels:
+// Tile drivers of the path state machine (path_state.h): the paths of one
+// render tile (PathTile) advance bounce by bounce, and after every bounce
+// their rays are traced together.
+//
+// trace_tile_packets gathers them into SIMD packets (Boulos et al. 2007
+// section 3.2) within each packet of pixels:
 //   RayType assembly: one packet per ray type (camera, diffuse, glossy,
 //     reflection, refraction; shadow rays apart, occlusion-only), the paper's
 //     choice;
@@ -12,9 +14,12 @@
 // then the (i+1)-th, ...): with CPT every pixel of a packet draws the same
 // numbers for the i-th ray, so these packets are the coherent ones.
 //
-// Shading is the state machine's, and packet kernels return the single-ray
-// kernel's hits bit for bit, so the image equals the depth-first driver's
-// (path_tracer.h) for the same sampler and seed.
+// trace_tile_streams traces all the tile's extension rays as one
+// breadth-first stream (ray_stream.h), then all its occlusion rays.
+//
+// Shading is the state machine's, and packet and stream kernels return the
+// single-ray kernel's hits bit for bit, so the image equals the depth-first
+// driver's (path_tracer.h) for the same sampler and seed.
 #pragma once
 
 #include <algorithm>
@@ -24,16 +29,15 @@
 #include "../accel/ray_packet.h"
 #include "../accel/ray_stream.h"
 #include "path_state.h"
-#include "path_tracer.h"
 
 namespace coherent {
 
-// One tile's paths in packet-major order: paths [packet_begin[k],
-// packet_begin[k + 1]) are the pixels of pixel packet k, row by row.
-template <class Sampler>
-struct PathBatch {
+// The camera paths of one render tile, in packet-major order: paths
+// [packet_begin[k], packet_begin[k + 1]) are the pixels of pixel packet k,
+// row by row. (The stream driver ignores the packets.)
+struct PathTile {
     std::vector<PathState> states;
-    std::vector<PathSampler<Sampler>> samplers;
+    std::vector<PathSampler<ImageSampler>> samplers;
     std::vector<int> px, py;
     std::vector<int> packet_begin;  // packets + 1 entries
     // Heatmaps: node visits per path, and the SIMD lanes (all / active) of
@@ -42,14 +46,25 @@ struct PathBatch {
     std::vector<uint64_t> lanes, lanes_active;
 
     // Starts the camera path of pixel (x, y)'s sample (the renderer's and
-    // every batched driver's one way to fill a batch).
+    // every tile driver's one way to fill a tile).
     template <bool kDepthOfField>
-    void start(const PathContext& ctx, const Sampler& sampler, uint32_t sample, int x, int y) {
+    void start(const PathContext& ctx, const ImageSampler& sampler, uint32_t sample, int x, int y) {
         samplers.emplace_back(sampler, uint32_t(x), uint32_t(y), sample);
         states.emplace_back();
-        start_path<Sampler, kDepthOfField>(ctx, samplers.back(), x, y, states.back());
+        start_path<kDepthOfField>(ctx, samplers.back(), x, y, states.back());
         px.push_back(x);
         py.push_back(y);
+    }
+    // Closes the pixel packet of the paths started since the last one
+    // closed; an empty packet is not kept.
+    void end_packet() {
+        if (int(size()) > packet_begin.back()) packet_begin.push_back(int(size()));
+    }
+    // Heatmaps: per-path counters, zeroed (call once every path is started).
+    void enable_heatmaps() {
+        node_visits.assign(size(), 0);
+        lanes.assign(size(), 0);
+        lanes_active.assign(size(), 0);
     }
 
     void clear() {
@@ -63,24 +78,10 @@ struct PathBatch {
         lanes_active.clear();
     }
     size_t size() const { return states.size(); }
+    int packets() const { return int(packet_begin.size()) - 1; }
 };
 
 namespace packet_detail {
-
-// Books one traced packet: totals, the bounce's statistics, per-path heatmap data.
-template <class Sampler>
-inline void book_packet(RenderStats& st, int bounce, RayType type, const PacketCounters& pc, const RayPacket& pk,
-                        const int* lane_path, const uint32_t* lane_visits, PathBatch<Sampler>& batch) {
-    book_rays(st, bounce, type, pc.rays);
-    book_work(st, bounce, pc);
-    if (batch.node_visits.empty()) return;
-    for (int i = 0; i < pk.size; ++i) {
-        const int p = lane_path[i];
-        batch.node_visits[size_t(p)] += lane_visits[i];
-        batch.lanes[size_t(p)] += pc.box_lanes;
-        batch.lanes_active[size_t(p)] += pc.box_lanes_active;
-    }
-}
 
 // |mean of the rays' unit directions|: 1 when all point the same way, near 0
 // for directions spread over the sphere.
@@ -105,174 +106,215 @@ struct PacketScratch {
     uint32_t lane_visits[kMaxPacketRays];
 };
 
-}  // namespace packet_detail
+// trace_tile_packets() below, in steps. The packet being gathered is
+// scratch.packet; lane i carries a ray of path scratch.lane_path[i].
+template <bool kGlass, bool kLights>
+class PacketTileTracer {
+public:
+    PacketTileTracer(const PathContext& ctx, PacketAssembly assembly, PathTile& tile, PacketScratch& scratch,
+                     RenderStats& st)
+        : ctx_(ctx), bvh_(*ctx.bvh), assembly_(assembly), tile_(tile), scratch_(scratch), pk_(scratch.packet),
+          st_(st), heat_(!tile.node_visits.empty()), min_coherence_(ctx.settings->packet_min_coherence) {}
 
-// Traces `batch` (all paths alive at bounce 0) to completion with packets.
-template <class Sampler, bool kGlass, bool kLights>
-void trace_batch_packets(const PathContext& ctx, PacketAssembly assembly, PathBatch<Sampler>& batch,
-                         packet_detail::PacketScratch& scratch, RenderStats& st) {
-    using namespace packet_detail;
-    const Bvh& bvh = *ctx.bvh;
-    const bool heat = !batch.node_visits.empty();
-    RayPacket& pk = scratch.packet;
-    const int packets = int(batch.packet_begin.size()) - 1;
-    const float min_coherence = ctx.settings->packet_min_coherence;
+    // Every bounce, packet by packet: the extension rays, then the
+    // occlusion rays their shading queued.
+    void run() {
+        pk_.clear();
+        for (int bounce = 0;; ++bounce) {
+            bool any_alive = false;
+            for (int k = 0; k < tile_.packets(); ++k) {
+                const int b = tile_.packet_begin[size_t(k)], e = tile_.packet_begin[size_t(k) + 1];
+                if (assembly_ == PacketAssembly::RayType) extend_by_type(bounce, b, e);
+                else extend_by_runs(bounce, b, e);
+                trace_occlusion(bounce, b, e);
+                for (int p = b; p < e && !any_alive; ++p) any_alive = tile_.states[size_t(p)].alive;
+            }
+            if (!any_alive) break;
+        }
+    }
 
-    // Traces the extension rays gathered in pk, then shades their paths.
-    auto flush_extension = [&](int bounce, RayType type) {
-        if (pk.size == 0) return;
-        scratch.hits.reset(pk.size);
-        if (packet_coherence(pk) >= min_coherence) {
-            PacketCounters pc;
-            if (heat) {
-                std::fill_n(scratch.lane_visits, pk.size, 0u);
-                pc.ray_node_visits = scratch.lane_visits;
-            }
-            bvh.intersect(pk, scratch.hits, &pc);
-            book_packet(st, bounce, type, pc, pk, scratch.lane_path, scratch.lane_visits, batch);
-        } else {  // incoherent: one ray at a time
-            for (int i = 0; i < pk.size; ++i) {
-                TraversalCounters c;
-                Hit h;
-                if (bvh.intersect(pk.ray(i), h, &c)) {
-                    scratch.hits.t[i] = h.t;
-                    scratch.hits.u[i] = h.u;
-                    scratch.hits.v[i] = h.v;
-                    scratch.hits.prim[i] = h.prim;
-                }
-                book_single_ray(st, bounce, type, c, heat ? &batch.node_visits[size_t(scratch.lane_path[i])] : nullptr);
-            }
-        }
-        TraversalCounters motion;  // moving triangles: one ray at a time
-        for (int i = 0; i < pk.size; ++i) {
-            const size_t p = size_t(scratch.lane_path[i]);
-            Hit h = scratch.hits.hit(i);
-            const bool found = merge_motion_hit(ctx, batch.states[p], h.valid(), h, &motion);
-            shade_hit<Sampler, kGlass, kLights>(ctx, batch.samplers[p], batch.states[p], found, h);
-        }
-        if (ctx.motion) book_work(st, bounce, motion);
-        pk.clear();
-    };
-    // Traces the occlusion rays gathered in pk; `done(lane, occluded)` takes each result.
-    auto flush_occlusion = [&](int bounce, auto&& done) {
-        if (pk.size == 0) return;
-        scratch.occluded = OcclusionMask{};
-        if (packet_coherence(pk) >= min_coherence) {
-            PacketCounters pc;
-            if (heat) {
-                std::fill_n(scratch.lane_visits, pk.size, 0u);
-                pc.ray_node_visits = scratch.lane_visits;
-            }
-            bvh.occluded(pk, scratch.occluded, &pc);
-            book_packet(st, bounce, RayType::Shadow, pc, pk, scratch.lane_path, scratch.lane_visits, batch);
-        } else {
-            for (int i = 0; i < pk.size; ++i) {
-                TraversalCounters c;
-                if (bvh.occluded(pk.ray(i), &c)) scratch.occluded.set(i);
-                book_single_ray(st, bounce, RayType::Shadow, c,
-                                heat ? &batch.node_visits[size_t(scratch.lane_path[i])] : nullptr);
-            }
-        }
-        TraversalCounters motion;
-        for (int i = 0; i < pk.size; ++i)
-            done(i, scratch.occluded.test(i) ||
-                        motion_occluded(ctx, batch.states[size_t(scratch.lane_path[i])], pk.ray(i), &motion));
-        if (ctx.motion) book_work(st, bounce, motion);
-        pk.clear();
-    };
+private:
+    void gather(int path, const Ray& r) {
+        scratch_.lane_path[pk_.size] = path;
+        pk_.push(r);
+    }
 
-    std::vector<int> ao_unoccluded;
-    int pending[kMaxPacketRays];
-    RayType pending_type[kMaxPacketRays];
-    pk.clear();
-    for (int bounce = 0;; ++bounce) {
-        bool any_alive = false;
-        for (int k = 0; k < packets; ++k) {
-            const int b = batch.packet_begin[size_t(k)], e = batch.packet_begin[size_t(k) + 1];
-            // Extension rays.
-            if (assembly == PacketAssembly::RayType) {
-                // One packet per ray type present. The participants are
-                // fixed first: shading a packet gives its paths their next
-                // ray, which must wait for the next bounce.
-                int count = 0;
-                uint32_t types = 0;
-                for (int p = b; p < e; ++p) {
-                    const PathState& s = batch.states[size_t(p)];
-                    if (!s.alive) continue;
-                    pending[count] = p;
-                    pending_type[count++] = s.type;
-                    types |= 1u << unsigned(s.type);
-                }
-                for (; types; types &= types - 1) {
-                    const RayType t = RayType(__builtin_ctz(types));
-                    for (int i = 0; i < count; ++i) {
-                        if (pending_type[i] != t) continue;
-                        scratch.lane_path[pk.size] = pending[i];
-                        pk.push(batch.states[size_t(pending[i])].ray);
-                    }
-                    flush_extension(bounce, t);
-                }
-            } else {
-                RayType run = RayType::Count;
-                for (int p = b; p < e; ++p) {
-                    const PathState& s = batch.states[size_t(p)];
-                    if (!s.alive || s.type != run) {
-                        flush_extension(bounce, run);
-                        run = s.alive ? s.type : RayType::Count;
-                        if (!s.alive) continue;
-                    }
-                    scratch.lane_path[pk.size] = p;
-                    pk.push(s.ray);
-                }
+    // RayType assembly: one packet per ray type present. The participants
+    // are fixed first: shading a packet gives its paths their next ray,
+    // which must wait for the next bounce.
+    void extend_by_type(int bounce, int b, int e) {
+        int pending[kMaxPacketRays];
+        RayType pending_type[kMaxPacketRays];
+        int count = 0;
+        uint32_t types = 0;
+        for (int p = b; p < e; ++p) {
+            const PathState& s = tile_.states[size_t(p)];
+            if (!s.alive) continue;
+            pending[count] = p;
+            pending_type[count++] = s.type;
+            types |= 1u << unsigned(s.type);
+        }
+        for (; types; types &= types - 1) {
+            const RayType t = RayType(__builtin_ctz(types));
+            for (int i = 0; i < count; ++i)
+                if (pending_type[i] == t) gather(pending[i], tile_.states[size_t(pending[i])].ray);
+            flush_extension(bounce, t);
+        }
+    }
+
+    // Runs assembly: consecutive paths whose rays share a type.
+    void extend_by_runs(int bounce, int b, int e) {
+        RayType run = RayType::Count;
+        for (int p = b; p < e; ++p) {
+            const PathState& s = tile_.states[size_t(p)];
+            if (!s.alive || s.type != run) {
                 flush_extension(bounce, run);
+                run = s.alive ? s.type : RayType::Count;
+                if (!s.alive) continue;
             }
-            // Shadow rays of this packet's paths (one type: the assemblies
-            // differ only in whether a path without one ends the run).
-            auto shadow_done = [&](int lane, bool occluded) {
-                resolve_shadow(batch.states[size_t(scratch.lane_path[lane])], occluded);
-            };
+            gather(p, s.ray);
+        }
+        flush_extension(bounce, run);
+    }
+
+    // The occlusion rays of paths [b, e) by ray index: every path's ray 0,
+    // then every path's ray 1, ... (shadow rays: ray 0 only). With CPT every
+    // pixel of a packet draws the same numbers for its k-th AO ray, so these
+    // packets are the coherent ones. The assemblies differ only in whether a
+    // path without a k-th ray ends the run.
+    void trace_occlusion(int bounce, int b, int e) {
+        int rays = 0;
+        for (int p = b; p < e; ++p) rays = std::max(rays, occlusion_ray_count(tile_.states[size_t(p)]));
+        if (rays == 0) return;
+        unoccluded_.assign(size_t(e - b), 0);
+        for (int k = 0; k < rays; ++k)
             for (int p = b; p < e; ++p) {
-                const PathState& s = batch.states[size_t(p)];
-                if (!s.has_shadow) {
-                    if (assembly == PacketAssembly::Runs) flush_occlusion(bounce, shadow_done);
+                const PathState& s = tile_.states[size_t(p)];
+                if (occlusion_ray_count(s) <= k) {
+                    if (assembly_ == PacketAssembly::Runs) flush_occlusion(bounce, b);
                     continue;
                 }
-                scratch.lane_path[pk.size] = p;
-                pk.push(s.shadow);
+                if (pk_.size == kMaxPacketRays) flush_occlusion(bounce, b);
+                gather(p, occlusion_ray(ctx_, tile_.samplers[size_t(p)], s, k));
             }
-            flush_occlusion(bounce, shadow_done);
-            // Ambient occlusion rays (first hits only), by ray index.
-            if (bounce == 0 && ctx.settings->integrator == Integrator::AmbientOcclusion) {
-                ao_unoccluded.assign(size_t(e - b), 0);
-                auto ao_done = [&](int lane, bool occluded) {
-                    if (!occluded) ++ao_unoccluded[size_t(scratch.lane_path[lane] - b)];
-                };
-                const int rays = ctx.settings->ao_samples;
-                for (int i = 0; i < rays; ++i)
-                    for (int p = b; p < e; ++p) {
-                        const PathState& s = batch.states[size_t(p)];
-                        if (s.ao_rays <= i) {
-                            if (assembly == PacketAssembly::Runs) flush_occlusion(bounce, ao_done);
-                            continue;
-                        }
-                        if (pk.size == kMaxPacketRays) flush_occlusion(bounce, ao_done);
-                        scratch.lane_path[pk.size] = p;
-                        pk.push(ao_ray(ctx, batch.samplers[size_t(p)], s, i));
-                    }
-                flush_occlusion(bounce, ao_done);
-                for (int p = b; p < e; ++p) resolve_ao(batch.states[size_t(p)], ao_unoccluded[size_t(p - b)]);
-            }
-            for (int p = b; p < e && !any_alive; ++p) any_alive = batch.states[size_t(p)].alive;
-        }
-        if (!any_alive) break;
+        flush_occlusion(bounce, b);
+        for (int p = b; p < e; ++p) resolve_occlusion(tile_.states[size_t(p)], unoccluded_[size_t(p - b)]);
     }
+
+    // Traces the gathered extension rays, then shades their paths.
+    void flush_extension(int bounce, RayType type) {
+        if (pk_.size == 0) return;
+        scratch_.hits.reset(pk_.size);
+        if (packet_coherence(pk_) >= min_coherence_) {
+            PacketCounters pc = packet_counters();
+            bvh_.intersect(pk_, scratch_.hits, &pc);
+            book_packet(bounce, type, pc);
+        } else {
+            intersect_singly(bounce, type);
+        }
+        TraversalCounters motion;  // moving triangles: one ray at a time
+        for (int i = 0; i < pk_.size; ++i) {
+            const size_t p = size_t(scratch_.lane_path[i]);
+            Hit h = scratch_.hits.hit(i);
+            const bool found = merge_motion_hit(ctx_, tile_.states[p], h.valid(), h, &motion);
+            shade_hit<kGlass, kLights>(ctx_, tile_.samplers[p], tile_.states[p], found, h);
+        }
+        if (ctx_.motion) book_work(st_, bounce, motion);
+        pk_.clear();
+    }
+
+    // Traces the gathered occlusion rays of paths b.. and counts each
+    // path's unoccluded ones.
+    void flush_occlusion(int bounce, int b) {
+        if (pk_.size == 0) return;
+        scratch_.occluded = OcclusionMask{};
+        if (packet_coherence(pk_) >= min_coherence_) {
+            PacketCounters pc = packet_counters();
+            bvh_.occluded(pk_, scratch_.occluded, &pc);
+            book_packet(bounce, RayType::Shadow, pc);
+        } else {
+            occluded_singly(bounce);
+        }
+        TraversalCounters motion;
+        for (int i = 0; i < pk_.size; ++i) {
+            const int p = scratch_.lane_path[i];
+            if (!(scratch_.occluded.test(i) || motion_occluded(ctx_, tile_.states[size_t(p)], pk_.ray(i), &motion)))
+                ++unoccluded_[size_t(p - b)];
+        }
+        if (ctx_.motion) book_work(st_, bounce, motion);
+        pk_.clear();
+    }
+
+    // Incoherent packets: one ray at a time.
+    void intersect_singly(int bounce, RayType type) {
+        for (int i = 0; i < pk_.size; ++i) {
+            TraversalCounters c;
+            Hit h;
+            if (bvh_.intersect(pk_.ray(i), h, &c)) {
+                scratch_.hits.t[i] = h.t;
+                scratch_.hits.u[i] = h.u;
+                scratch_.hits.v[i] = h.v;
+                scratch_.hits.prim[i] = h.prim;
+            }
+            book_single_ray(st_, bounce, type, c, lane_node_visits(i));
+        }
+    }
+    void occluded_singly(int bounce) {
+        for (int i = 0; i < pk_.size; ++i) {
+            TraversalCounters c;
+            if (bvh_.occluded(pk_.ray(i), &c)) scratch_.occluded.set(i);
+            book_single_ray(st_, bounce, RayType::Shadow, c, lane_node_visits(i));
+        }
+    }
+
+    // Counters of one packet trace; with heatmaps, per-lane node visits too.
+    PacketCounters packet_counters() {
+        PacketCounters pc;
+        if (heat_) {
+            std::fill_n(scratch_.lane_visits, pk_.size, 0u);
+            pc.ray_node_visits = scratch_.lane_visits;
+        }
+        return pc;
+    }
+    // Heatmaps: where lane i's path counts its node visits (null when off).
+    uint32_t* lane_node_visits(int i) {
+        return heat_ ? &tile_.node_visits[size_t(scratch_.lane_path[i])] : nullptr;
+    }
+    // Books one traced packet: totals, the bounce's statistics, per-path heatmap data.
+    void book_packet(int bounce, RayType type, const PacketCounters& pc) {
+        book_rays(st_, bounce, type, pc.rays);
+        book_work(st_, bounce, pc);
+        if (!heat_) return;
+        for (int i = 0; i < pk_.size; ++i) {
+            const size_t p = size_t(scratch_.lane_path[i]);
+            tile_.node_visits[p] += scratch_.lane_visits[i];
+            tile_.lanes[p] += pc.box_lanes;
+            tile_.lanes_active[p] += pc.box_lanes_active;
+        }
+    }
+
+    const PathContext& ctx_;
+    const Bvh& bvh_;
+    const PacketAssembly assembly_;
+    PathTile& tile_;
+    PacketScratch& scratch_;
+    RayPacket& pk_;
+    RenderStats& st_;
+    const bool heat_;
+    const float min_coherence_;
+    std::vector<int> unoccluded_;  // per path of the packet: its unoccluded occlusion rays
+};
+
+}  // namespace packet_detail
+
+// Traces `tile` (all paths alive at bounce 0) to completion with packets.
+template <bool kGlass, bool kLights>
+void trace_tile_packets(const PathContext& ctx, PacketAssembly assembly, PathTile& tile,
+                        packet_detail::PacketScratch& scratch, RenderStats& st) {
+    packet_detail::PacketTileTracer<kGlass, kLights>(ctx, assembly, tile, scratch, st).run();
 }
 
-}  // namespace coherent
-
-namespace coherent {
-
-// Stream scratch: the batch's rays of one kind, traced as one stream.
+// Stream scratch: the tile's rays of one kind, traced as one stream.
 struct StreamScratch {
     std::vector<Ray> rays;
     std::vector<Hit> hits;
@@ -280,85 +322,93 @@ struct StreamScratch {
     std::vector<int> path;  // ray -> path
 };
 
-// Traces `batch` to completion with breadth-first ray streams (ray_stream.h):
-// after every bounce, all the batch's extension rays form one stream, then
-// all its shadow rays (and at the first hit all its AO rays) another. The
-// stream runs on the calling thread (the renderer already runs one batch
-// per task). Same shading, hence the same image, as the other drivers.
-template <class Sampler, bool kGlass, bool kLights>
-void trace_batch_streams(const PathContext& ctx, PathBatch<Sampler>& batch, StreamScratch& scratch,
-                         RenderStats& st) {
-    const Bvh& bvh = *ctx.bvh;
+namespace stream_detail {
+
+// Single-threaded, the whole stream at once: the renderer already runs one
+// tile per task.
+inline StreamOptions tile_stream_options() {
     StreamOptions options;
     options.slice_size = 0;  // the whole stream at once
     options.parallel = false;
-    auto book = [&](int bounce, const StreamStats& ss, const std::vector<int>& path, auto&& type_of) {
-        for (size_t i = 0; i < path.size(); ++i) book_rays(st, bounce, type_of(path[i]), 1);
-        TraversalCounters c;
-        c.node_visits = ss.node_visits;
-        c.box_tests = ss.box_tests;
-        c.triangle_tests = ss.triangle_tests;
-        book_work(st, bounce, c);
-    };
-    auto shadow_type = [](int) { return RayType::Shadow; };
-    for (int bounce = 0;; ++bounce) {
-        scratch.rays.clear();
-        scratch.path.clear();
-        for (size_t p = 0; p < batch.size(); ++p)
-            if (batch.states[p].alive) {
-                scratch.rays.push_back(batch.states[p].ray);
-                scratch.path.push_back(int(p));
-            }
-        if (scratch.rays.empty()) break;
-        scratch.hits.assign(scratch.rays.size(), Hit{});
-        StreamStats ss;
-        intersect_stream(bvh, scratch.rays.data(), scratch.rays.size(), scratch.hits.data(), &ss, options);
-        book(bounce, ss, scratch.path, [&](int p) { return batch.states[size_t(p)].type; });
-        TraversalCounters motion;
-        for (size_t i = 0; i < scratch.path.size(); ++i) {
-            const size_t p = size_t(scratch.path[i]);
-            const bool found = merge_motion_hit(ctx, batch.states[p], scratch.hits[i].valid(), scratch.hits[i], &motion);
-            shade_hit<Sampler, kGlass, kLights>(ctx, batch.samplers[p], batch.states[p], found, scratch.hits[i]);
+    return options;
+}
+
+inline void book_stream_work(RenderStats& st, int bounce, const StreamStats& ss) {
+    TraversalCounters c;
+    c.node_visits = ss.node_visits;
+    c.box_tests = ss.box_tests;
+    c.triangle_tests = ss.triangle_tests;
+    book_work(st, bounce, c);
+}
+
+// The live paths' extension rays as one stream, then their shading.
+// Returns false when no path was alive.
+template <bool kGlass, bool kLights>
+bool extend(const PathContext& ctx, PathTile& tile, StreamScratch& scratch, RenderStats& st, int bounce) {
+    scratch.rays.clear();
+    scratch.path.clear();
+    for (size_t p = 0; p < tile.size(); ++p)
+        if (tile.states[p].alive) {
+            scratch.rays.push_back(tile.states[p].ray);
+            scratch.path.push_back(int(p));
         }
-        if (ctx.motion) book_work(st, bounce, motion);
-        // Occlusion rays: shadow rays, and at the first hit the AO rays.
-        scratch.rays.clear();
-        scratch.path.clear();
-        for (size_t p = 0; p < batch.size(); ++p) {
-            const PathState& s = batch.states[p];
-            if (s.has_shadow) {
-                scratch.rays.push_back(s.shadow);
-                scratch.path.push_back(int(p));
-            }
-            for (int i = 0; i < s.ao_rays; ++i) {
-                scratch.rays.push_back(ao_ray(ctx, batch.samplers[p], s, i));
-                scratch.path.push_back(int(p));
-            }
-        }
-        if (scratch.rays.empty()) continue;
-        scratch.occluded.assign(scratch.rays.size(), 0);
-        occluded_stream(bvh, scratch.rays.data(), scratch.rays.size(), scratch.occluded.data(), &ss, options);
-        book(bounce, ss, scratch.path, shadow_type);
-        if (ctx.motion) {
-            TraversalCounters mc;
-            for (size_t i = 0; i < scratch.rays.size(); ++i)
-                if (!scratch.occluded[i] && motion_occluded(ctx, batch.states[size_t(scratch.path[i])], scratch.rays[i], &mc))
-                    scratch.occluded[i] = 1;
-            book_work(st, bounce, mc);
-        }
-        // Rays of a path are consecutive: its shadow ray, or its AO rays.
-        for (size_t i = 0; i < scratch.path.size();) {
-            PathState& s = batch.states[size_t(scratch.path[i])];
-            if (s.has_shadow) {
-                resolve_shadow(s, scratch.occluded[i] != 0);
-                ++i;
-            } else {
-                int unoccluded = 0;
-                for (int k = 0; k < s.ao_rays; ++k, ++i) unoccluded += scratch.occluded[i] ? 0 : 1;
-                resolve_ao(s, unoccluded);
-            }
+    if (scratch.rays.empty()) return false;
+    scratch.hits.assign(scratch.rays.size(), Hit{});
+    StreamStats ss;
+    intersect_stream(*ctx.bvh, scratch.rays.data(), scratch.rays.size(), scratch.hits.data(), &ss,
+                     tile_stream_options());
+    for (const int p : scratch.path) book_rays(st, bounce, tile.states[size_t(p)].type, 1);
+    book_stream_work(st, bounce, ss);
+    TraversalCounters motion;
+    for (size_t i = 0; i < scratch.path.size(); ++i) {
+        const size_t p = size_t(scratch.path[i]);
+        const bool found = merge_motion_hit(ctx, tile.states[p], scratch.hits[i].valid(), scratch.hits[i], &motion);
+        shade_hit<kGlass, kLights>(ctx, tile.samplers[p], tile.states[p], found, scratch.hits[i]);
+    }
+    if (ctx.motion) book_work(st, bounce, motion);
+    return true;
+}
+
+// Every path's occlusion rays as one stream (path-major), then resolved.
+inline void occlude(const PathContext& ctx, PathTile& tile, StreamScratch& scratch, RenderStats& st, int bounce) {
+    scratch.rays.clear();
+    scratch.path.clear();
+    for (size_t p = 0; p < tile.size(); ++p) {
+        const PathState& s = tile.states[p];
+        for (int k = 0, n = occlusion_ray_count(s); k < n; ++k) {
+            scratch.rays.push_back(occlusion_ray(ctx, tile.samplers[p], s, k));
+            scratch.path.push_back(int(p));
         }
     }
+    if (scratch.rays.empty()) return;
+    scratch.occluded.assign(scratch.rays.size(), 0);
+    StreamStats ss;
+    occluded_stream(*ctx.bvh, scratch.rays.data(), scratch.rays.size(), scratch.occluded.data(), &ss,
+                    tile_stream_options());
+    book_rays(st, bounce, RayType::Shadow, scratch.rays.size());
+    book_stream_work(st, bounce, ss);
+    if (ctx.motion) {
+        TraversalCounters mc;
+        for (size_t i = 0; i < scratch.rays.size(); ++i)
+            if (!scratch.occluded[i] &&
+                motion_occluded(ctx, tile.states[size_t(scratch.path[i])], scratch.rays[i], &mc))
+                scratch.occluded[i] = 1;
+        book_work(st, bounce, mc);
+    }
+    resolve_occlusion_queue(scratch.occluded.data(), scratch.rays.size(),
+                            [&](size_t i) -> PathState& { return tile.states[size_t(scratch.path[i])]; });
+}
+
+}  // namespace stream_detail
+
+// Traces `tile` to completion with breadth-first ray streams (ray_stream.h):
+// after every bounce, all the tile's extension rays form one stream, then
+// all its occlusion rays (shadow rays; at the first hit, AO rays) another.
+// Same shading, hence the same image, as the other drivers.
+template <bool kGlass, bool kLights>
+void trace_tile_streams(const PathContext& ctx, PathTile& tile, StreamScratch& scratch, RenderStats& st) {
+    for (int bounce = 0; stream_detail::extend<kGlass, kLights>(ctx, tile, scratch, st, bounce); ++bounce)
+        stream_detail::occlude(ctx, tile, scratch, st, bounce);
 }
 
 }  // namespace coherent

@@ -14,14 +14,16 @@
 //     one shadow ray (next-event estimation) and set up the next extension
 //     ray, or end the path (state.alive = false).
 //   shadow ray (state.shadow, when state.has_shadow): traced with
-//     Bvh::occluded; the driver calls resolve_shadow() with the result
+//     Bvh::occluded; the driver calls resolve_occlusion() with the result
 //     BEFORE tracing the path's next extension ray. (The radiance sum then
 //     adds contributions in the same order as a depth-first loop.)
 // Ambient occlusion (Integrator::AmbientOcclusion) instead queues
-// ao_samples occlusion rays at the first hit (ao_ray()) and ends.
+// ao_samples occlusion rays at the first hit (ao_ray()) and ends. Drivers
+// see both kinds through one interface: occlusion_ray_count(),
+// occlusion_ray(), resolve_occlusion().
 //
 // Integrators differ only in which BSDF samples continue the path
-// (continue_rule below); light sampling, MIS and bounce limits are shared.
+// (may_continue below); light sampling, MIS and bounce limits are shared.
 #pragma once
 
 #include <cmath>
@@ -29,7 +31,7 @@
 
 #include "../accel/bvh.h"
 #include "../accel/motion_bvh.h"
-#include "../sample/sampler.h"
+#include "../sample/image_sampler.h"
 #include "../scene/scene.h"
 #include "bsdf.h"
 #include "camera_rays.h"
@@ -136,8 +138,8 @@ constexpr bool integrator_uses_lens(Integrator i) {
 }
 
 // The camera ray of pixel (px, py)'s sample.
-template <class Sampler, bool kDepthOfField>
-inline void start_path(const PathContext& ctx, const PathSampler<Sampler>& ps, int px, int py, PathState& s) {
+template <bool kDepthOfField>
+inline void start_path(const PathContext& ctx, const PathSampler<ImageSampler>& ps, int px, int py, PathState& s) {
     using D = PathDims;
     const RenderSettings& rs = *ctx.settings;
     const float fx = float(px) + ps.get(D::kPixelX);
@@ -156,8 +158,7 @@ inline void start_path(const PathContext& ctx, const PathSampler<Sampler>& ps, i
 // The i-th ambient occlusion ray (i < s.ao_rays): cosine-distributed about
 // the geometric normal facing the camera, ao_distance long. Dimensions: the
 // i-th AO ray reads bounce block i's BSDF dimensions.
-template <class Sampler>
-inline Ray ao_ray(const PathContext& ctx, const PathSampler<Sampler>& ps, const PathState& s, int i) {
+inline Ray ao_ray(const PathContext& ctx, const PathSampler<ImageSampler>& ps, const PathState& s, int i) {
     using D = PathDims;
     const Vec3f local = sample_cosine_hemisphere(ps.get(D::bounce(i, D::kBsdfU)), ps.get(D::bounce(i, D::kBsdfV)));
     Vec3f t, b;
@@ -170,49 +171,31 @@ inline Ray ao_ray(const PathContext& ctx, const PathSampler<Sampler>& ps, const 
     return r;
 }
 
-// Shades the result of tracing s.ray (found/hit as from Bvh::intersect).
-// Precondition: s.alive and !s.has_shadow. Afterwards the path may have a
-// shadow ray queued even when it ended (!s.alive): drivers resolve it either way.
-template <class Sampler, bool kGlass, bool kLights>
-inline void shade_hit(const PathContext& ctx, const PathSampler<Sampler>& ps, PathState& s, bool found,
-                      const Hit& hit) {
-    const Scene& scene = *ctx.scene;
-    const RenderSettings& rs = *ctx.settings;
-    const LightSet& lights = *ctx.lights;
-    using D = PathDims;
-    s.alive = false;  // until a next ray is set up below
+// The steps of shade_hit() are separate functions for reading, not for the
+// compiler: they are always inlined, so the per-hit code is one body as it
+// was before they were named (no calls, no struct copies in the hot path).
+#define COHERENT_ALWAYS_INLINE __attribute__((always_inline)) inline
 
-    // Analytic lights are invisible to camera rays (measured in Cycles) and
-    // transparent: every one in front of the surface adds its emission.
-    if constexpr (kLights) {
-        if (s.bounce > 0)
-            s.out.radiance += clamp_contribution(
-                s.throughput * lights.hit_lights(s.ray.o, s.ray.d, found ? hit.t : s.ray.tmax, s.prev_pdf),
-                s.bounce - 1, rs);
-    }
+namespace shading {
 
-    if (!found) {
-        if (s.bounce == 0) {
-            if (rs.integrator == Integrator::AmbientOcclusion) {
-                // Nothing occludes a ray that leaves the scene.
-                if (rs.transparent_film) s.out.alpha = 0.0f;
-                else s.out.radiance += Vec3f(1.0f);
-            } else if (rs.transparent_film) {
-                s.out.alpha = 0.0f;
-            } else {
-                s.out.radiance += clamp_contribution(lights.world_color(), -1, rs);
-            }
-        } else if constexpr (kLights) {
-            s.out.radiance += clamp_contribution(
-                s.throughput * lights.escaped(s.ray.d, s.prev_n, s.prev_transmissive, s.prev_pdf), s.bounce - 1, rs);
-        }
-        return;
-    }
+// The point where s.ray met triangle `tri`, as shading sees it.
+struct SurfacePoint {
+    uint32_t tri;
+    Vec3f p, p_error;  // position and its rounding error bound (ray_offset.h)
+    Vec3f ng;          // geometric normal, as stored (light pdfs use it)
+    Vec3f ng_f;        // geometric normal on the side the ray came from
+    Vec3f n;           // shading normal on that side
+    Vec3f wo;          // towards where the ray came from
+    bool front;        // the ray hit the side ng points to
+};
 
+COHERENT_ALWAYS_INLINE SurfacePoint surface_point(const Scene& scene, const PathState& s, const Hit& hit) {
+    SurfacePoint sp;
+    sp.tri = hit.prim;
     const uint32_t tri = hit.prim;
     const Vec3f* v = &scene.vertices[3 * size_t(tri)];
     const Vec3f* sn = &scene.normals[3 * size_t(tri)];
-    Vec3f ng = scene.geometric_normals[tri];
+    sp.ng = scene.geometric_normals[tri];
     // A moving triangle is shaded where the ray met it: at the path's time,
     // with the very vertices the intersector used (motion_vertex()).
     Vec3f moved[3], moved_n[3];
@@ -227,92 +210,149 @@ inline void shade_hit(const PathContext& ctx, const PathSampler<Sampler>& ps, Pa
         sn = moved_n;
         const Vec3f c = cross(v[1] - v[0], v[2] - v[0]);
         const float len = length(c);
-        if (len > 0.0f && std::isfinite(len)) ng = c / len;  // else keep the open pose's normal
+        if (len > 0.0f && std::isfinite(len)) sp.ng = c / len;  // else keep the open pose's normal
     }
-    Vec3f p_error;
-    const Vec3f p = triangle_point(v[0], v[1], v[2], hit.u, hit.v, p_error);
-    const Vec3f wo = -s.ray.d;
-    const bool front = dot(wo, ng) > 0.0f;
-    const Vec3f ng_f = front ? ng : -ng;
-    Vec3f n = ng_f;
+    sp.p = triangle_point(v[0], v[1], v[2], hit.u, hit.v, sp.p_error);
+    sp.wo = -s.ray.d;
+    sp.front = dot(sp.wo, sp.ng) > 0.0f;
+    sp.ng_f = sp.front ? sp.ng : -sp.ng;
+    sp.n = sp.ng_f;
     if (scene.has_normals[tri]) {
         const Vec3f interp = sn[0] * (1.0f - hit.u - hit.v) + sn[1] * hit.u + sn[2] * hit.v;
         const float len = length(interp);
         if (len > 0.0f && std::isfinite(len)) {
-            const Vec3f ns = (front ? interp : -interp) / len;
+            const Vec3f ns = (sp.front ? interp : -interp) / len;
             // A shading normal facing away from the viewer cannot shade it.
-            if (dot(ns, wo) > 1e-4f) n = ns;
+            if (dot(ns, sp.wo) > 1e-4f) sp.n = ns;
         }
     }
+    return sp;
+}
+
+// Analytic lights are invisible to camera rays (measured in Cycles) and
+// transparent: every one in front of the surface (or of nothing) adds its emission.
+COHERENT_ALWAYS_INLINE void add_lights_passed(const PathContext& ctx, PathState& s, bool found, const Hit& hit) {
+    if (s.bounce > 0)
+        s.out.radiance += clamp_contribution(
+            s.throughput * ctx.lights->hit_lights(s.ray.o, s.ray.d, found ? hit.t : s.ray.tmax, s.prev_pdf),
+            s.bounce - 1, *ctx.settings);
+}
+
+// s.ray left the scene.
+template <bool kLights>
+COHERENT_ALWAYS_INLINE void shade_miss(const PathContext& ctx, PathState& s) {
+    const RenderSettings& rs = *ctx.settings;
     if (s.bounce == 0) {
-        s.out.depth = dot(p - scene.camera.position, scene.camera.forward);
-        s.out.normal = n;
-    }
-
-    if (rs.integrator == Integrator::AmbientOcclusion) {
-        // The AO rays leave the side the camera sees; the driver traces them
-        // and adds 1 / ao_samples per unoccluded ray (resolve_ao).
-        s.ao_rays = rs.ao_samples;
-        s.ao_normal = ng_f;
-        s.ao_origin = offset_ray_origin(p, p_error, ng_f, ng_f);
-        return;
-    }
-
-    const Material& mat = scene.materials[scene.material_of[tri]];
-    if (mat.is_emissive()) {
-        float w = 1.0f;
-        if constexpr (kLights) {
-            if (s.prev_pdf > 0.0f) w = power_heuristic(s.prev_pdf, lights.triangle_pdf(tri, s.ray.o, p, ng));
+        if (rs.integrator == Integrator::AmbientOcclusion) {
+            // Nothing occludes a ray that leaves the scene.
+            if (rs.transparent_film) s.out.alpha = 0.0f;
+            else s.out.radiance += Vec3f(1.0f);
+        } else if (rs.transparent_film) {
+            s.out.alpha = 0.0f;
+        } else {
+            s.out.radiance += clamp_contribution(ctx.lights->world_color(), -1, rs);
         }
-        s.out.radiance += clamp_contribution(s.throughput * mat.emission * w, s.bounce - 1, rs);
+    } else if constexpr (kLights) {
+        s.out.radiance += clamp_contribution(
+            s.throughput * ctx.lights->escaped(s.ray.d, s.prev_n, s.prev_transmissive, s.prev_pdf), s.bounce - 1, rs);
     }
-    if (s.last_ray) return;
+}
 
-    const Bsdf bsdf(mat, n, ng_f, wo, front, kGlass);
-    if (bsdf.empty()) return;
+// Ambient occlusion at the first hit: the AO rays leave the side the camera
+// sees; the driver traces them and resolve_occlusion() adds 1 / ao_samples
+// per unoccluded ray.
+COHERENT_ALWAYS_INLINE void queue_ao_rays(const PathContext& ctx, PathState& s, const SurfacePoint& sp) {
+    s.ao_rays = ctx.settings->ao_samples;
+    s.ao_normal = sp.ng_f;
+    s.ao_origin = offset_ray_origin(sp.p, sp.p_error, sp.ng_f, sp.ng_f);
+}
 
-    // Next-event estimation: queue the shadow ray with its contribution.
+// An emissive surface hit: its emission, MIS-weighted against next-event
+// estimation from the previous vertex when that sampled lights.
+template <bool kLights>
+COHERENT_ALWAYS_INLINE void add_emission(const PathContext& ctx, PathState& s, const Material& mat,
+                                         const SurfacePoint& sp) {
+    float w = 1.0f;
     if constexpr (kLights) {
-        LightSample ls;
-        if (bsdf.has_non_delta() &&
-            lights.sample(p, n, bsdf.transmissive(), ps.get(D::bounce(s.bounce, D::kLightPick)),
-                          ps.get(D::bounce(s.bounce, D::kLightU)), ps.get(D::bounce(s.bounce, D::kLightV)), ls)) {
-            float bsdf_pdf = 0.0f;
-            const Vec3f f = bsdf.eval(ls.wi, bsdf_pdf);
-            if (!is_black(f) && !is_black(ls.li)) {
-                Ray& shadow = s.shadow;
-                shadow.o = offset_ray_origin(p, p_error, ng_f, ls.wi);
-                shadow.d = ls.wi;
-                shadow.tmin = kSpawnTmin;
-                // Analytic lights are not geometry: the shadow ray runs the
-                // full distance, so an occluder however close to the light
-                // (a light just outside a wall) still blocks it.
-                shadow.tmax = ls.dist;
-                if (ls.on_surface) {
-                    // Emissive triangles are in the BVH: aim at a point pushed
-                    // off the emitter by its error bound, towards us, so the
-                    // emitter cannot occlude itself and nothing in front of it
-                    // is skipped.
-                    const Vec3f target = offset_ray_origin(ls.p_light, ls.p_light_error, ls.n_light, -ls.wi);
-                    const Vec3f to = target - shadow.o;
-                    const float d = length(to);
-                    shadow.d = to / d;
-                    shadow.tmax = d * (1.0f - 1e-6f);
-                }
-                const float w = ls.delta ? 1.0f : power_heuristic(ls.pdf, bsdf_pdf);
-                s.shadow_contribution = clamp_contribution(s.throughput * f * ls.li * (w / ls.pdf), s.bounce, rs);
-                s.has_shadow = true;
-            }
-        }
+        if (s.prev_pdf > 0.0f) w = power_heuristic(s.prev_pdf, ctx.lights->triangle_pdf(sp.tri, s.ray.o, sp.p, sp.ng));
     }
+    s.out.radiance += clamp_contribution(s.throughput * mat.emission * w, s.bounce - 1, *ctx.settings);
+}
 
-    // Russian roulette on the path throughput (Cycles: sqrt of the max component).
-    if (s.bounce >= rs.rr_min_bounces) {
-        const float q = std::min(1.0f, std::sqrt(max_component(s.throughput)));
-        if (!(ps.get(D::bounce(s.bounce, D::kRoulette)) < q)) return;
-        s.throughput = s.throughput / q;
+// The shadow ray from sp towards light sample ls.
+COHERENT_ALWAYS_INLINE Ray shadow_ray(const SurfacePoint& sp, const LightSample& ls) {
+    Ray shadow;
+    shadow.o = offset_ray_origin(sp.p, sp.p_error, sp.ng_f, ls.wi);
+    shadow.d = ls.wi;
+    shadow.tmin = kSpawnTmin;
+    // Analytic lights are not geometry: the shadow ray runs the full
+    // distance, so an occluder however close to the light (a light just
+    // outside a wall) still blocks it.
+    shadow.tmax = ls.dist;
+    if (ls.on_surface) {
+        // Emissive triangles are in the BVH: aim at a point pushed off the
+        // emitter by its error bound, towards us, so the emitter cannot
+        // occlude itself and nothing in front of it is skipped.
+        const Vec3f target = offset_ray_origin(ls.p_light, ls.p_light_error, ls.n_light, -ls.wi);
+        const Vec3f to = target - shadow.o;
+        const float d = length(to);
+        shadow.d = to / d;
+        shadow.tmax = d * (1.0f - 1e-6f);
     }
+    return shadow;
+}
 
+// Next-event estimation: samples a light and queues the shadow ray with the
+// contribution it adds if unoccluded.
+COHERENT_ALWAYS_INLINE void queue_shadow_ray(const PathContext& ctx, const PathSampler<ImageSampler>& ps, PathState& s,
+                             const Bsdf& bsdf, const SurfacePoint& sp) {
+    using D = PathDims;
+    LightSample ls;
+    if (!bsdf.has_non_delta() ||
+        !ctx.lights->sample(sp.p, sp.n, bsdf.transmissive(), ps.get(D::bounce(s.bounce, D::kLightPick)),
+                            ps.get(D::bounce(s.bounce, D::kLightU)), ps.get(D::bounce(s.bounce, D::kLightV)), ls))
+        return;
+    float bsdf_pdf = 0.0f;
+    const Vec3f f = bsdf.eval(ls.wi, bsdf_pdf);
+    if (is_black(f) || is_black(ls.li)) return;
+    s.shadow = shadow_ray(sp, ls);
+    const float w = ls.delta ? 1.0f : power_heuristic(ls.pdf, bsdf_pdf);
+    s.shadow_contribution = clamp_contribution(s.throughput * f * ls.li * (w / ls.pdf), s.bounce, *ctx.settings);
+    s.has_shadow = true;
+}
+
+// Russian roulette on the path throughput (Cycles: sqrt of the max
+// component); returns whether the path survives, its throughput rescaled.
+COHERENT_ALWAYS_INLINE bool survive_roulette(const PathContext& ctx, const PathSampler<ImageSampler>& ps,
+                                             PathState& s) {
+    using D = PathDims;
+    if (s.bounce < ctx.settings->rr_min_bounces) return true;
+    const float q = std::min(1.0f, std::sqrt(max_component(s.throughput)));
+    if (!(ps.get(D::bounce(s.bounce, D::kRoulette)) < q)) return false;
+    s.throughput = s.throughput / q;
+    return true;
+}
+
+// Counts the bounce of BSDF sample `bs` and decides whether its ray is the
+// path's last (a bounce limit or the integrator's continuation rule).
+COHERENT_ALWAYS_INLINE void count_bounce(const RenderSettings& rs, PathState& s, const BsdfSample& bs) {
+    ++s.bounce;
+    switch (bs.type) {
+        case RayType::Diffuse: ++s.diffuse_bounce; break;
+        case RayType::Refraction: ++s.transmission_bounce; break;
+        default: ++s.glossy_bounce; break;
+    }
+    if (s.bounce > rs.max_bounces || s.diffuse_bounce > rs.diffuse_bounces || s.glossy_bounce > rs.glossy_bounces ||
+        s.transmission_bounce > rs.transmission_bounces || !may_continue(rs.integrator, bs))
+        s.last_ray = true;
+}
+
+// Samples the BSDF and sets up the next extension ray (s.alive), unless the
+// sample fails or carries no throughput.
+template <bool kGlass>
+COHERENT_ALWAYS_INLINE void sample_next_ray(const PathContext& ctx, const PathSampler<ImageSampler>& ps, PathState& s,
+                            const Bsdf& bsdf, const SurfacePoint& sp) {
+    using D = PathDims;
     BsdfSample bs;
     if (!bsdf.sample(ps.get(D::bounce(s.bounce, D::kBsdfLobe)), ps.get(D::bounce(s.bounce, D::kBsdfU)),
                      ps.get(D::bounce(s.bounce, D::kBsdfV)), bs))
@@ -323,20 +363,11 @@ inline void shade_hit(const PathContext& ctx, const PathSampler<Sampler>& ps, Pa
     s.throughput *= bs.weight;
     if (is_black(s.throughput) || !is_finite(s.throughput)) return;
 
-    ++s.bounce;
-    switch (bs.type) {
-        case RayType::Diffuse: ++s.diffuse_bounce; break;
-        case RayType::Refraction: ++s.transmission_bounce; break;
-        default: ++s.glossy_bounce; break;
-    }
-    if (s.bounce > rs.max_bounces || s.diffuse_bounce > rs.diffuse_bounces || s.glossy_bounce > rs.glossy_bounces ||
-        s.transmission_bounce > rs.transmission_bounces || !may_continue(rs.integrator, bs))
-        s.last_ray = true;
-
+    count_bounce(*ctx.settings, s, bs);
     s.prev_pdf = bs.delta ? 0.0f : bs.pdf;
-    s.prev_n = n;
+    s.prev_n = sp.n;
     s.prev_transmissive = bsdf.transmissive();
-    s.ray.o = offset_ray_origin(p, p_error, ng_f, bs.wi);
+    s.ray.o = offset_ray_origin(sp.p, sp.p_error, sp.ng_f, bs.wi);
     s.ray.d = bs.wi;
     s.ray.tmin = kSpawnTmin;
     s.ray.tmax = kInf;
@@ -344,16 +375,82 @@ inline void shade_hit(const PathContext& ctx, const PathSampler<Sampler>& ps, Pa
     s.alive = true;
 }
 
-// The result of s.shadow. Precondition: s.has_shadow.
-inline void resolve_shadow(PathState& s, bool occluded) {
-    if (!occluded) s.out.radiance += s.shadow_contribution;
-    s.has_shadow = false;
+}  // namespace shading
+
+// Shades the result of tracing s.ray (found/hit as from Bvh::intersect).
+// Precondition: s.alive and !s.has_shadow. Afterwards the path may have a
+// shadow ray queued even when it ended (!s.alive): drivers resolve it either way.
+template <bool kGlass, bool kLights>
+inline void shade_hit(const PathContext& ctx, const PathSampler<ImageSampler>& ps, PathState& s, bool found,
+                      const Hit& hit) {
+    using namespace shading;
+    const Scene& scene = *ctx.scene;
+    s.alive = false;  // until a next ray is set up
+
+    if constexpr (kLights) add_lights_passed(ctx, s, found, hit);
+    if (!found) {
+        shade_miss<kLights>(ctx, s);
+        return;
+    }
+    const SurfacePoint sp = surface_point(scene, s, hit);
+    if (s.bounce == 0) {
+        s.out.depth = dot(sp.p - scene.camera.position, scene.camera.forward);
+        s.out.normal = sp.n;
+    }
+    if (ctx.settings->integrator == Integrator::AmbientOcclusion) {
+        queue_ao_rays(ctx, s, sp);
+        return;
+    }
+
+    const Material& mat = scene.materials[scene.material_of[sp.tri]];
+    if (mat.is_emissive()) add_emission<kLights>(ctx, s, mat, sp);
+    if (s.last_ray) return;
+
+    const Bsdf bsdf(mat, sp.n, sp.ng_f, sp.wo, sp.front, kGlass);
+    if (bsdf.empty()) return;
+    if constexpr (kLights) queue_shadow_ray(ctx, ps, s, bsdf, sp);
+    if (!survive_roulette(ctx, ps, s)) return;
+    sample_next_ray<kGlass>(ctx, ps, s, bsdf, sp);
 }
 
-// Ambient occlusion: `unoccluded` of the s.ao_rays rays escaped.
-inline void resolve_ao(PathState& s, int unoccluded) {
+// A shaded path's occlusion rays: its shadow ray, or its ambient occlusion
+// rays (never both: AO ends the path at its first hit). Drivers trace
+// occlusion_ray(.., k) for k < occlusion_ray_count(s), in any order, then
+// call resolve_occlusion() with how many were unoccluded, before tracing the
+// path's next extension ray.
+COHERENT_ALWAYS_INLINE int occlusion_ray_count(const PathState& s) { return s.has_shadow ? 1 : s.ao_rays; }
+
+COHERENT_ALWAYS_INLINE Ray occlusion_ray(const PathContext& ctx, const PathSampler<ImageSampler>& ps,
+                                         const PathState& s, int k) {
+    return s.has_shadow ? s.shadow : ao_ray(ctx, ps, s, k);
+}
+
+// The shadow ray adds its contribution if unoccluded; the AO rays add
+// 1 / ao_rays each. Afterwards the path has no occlusion ray queued.
+COHERENT_ALWAYS_INLINE void resolve_occlusion(PathState& s, int unoccluded) {
+    if (s.has_shadow) {
+        if (unoccluded > 0) s.out.radiance += s.shadow_contribution;
+        s.has_shadow = false;
+        return;
+    }
     if (s.ao_rays > 0) s.out.radiance += Vec3f(float(unoccluded) / float(s.ao_rays));
     s.ao_rays = 0;
+}
+
+// The results of a path-major occlusion queue (streams, wavefront): the
+// rays of each path consecutive, in occlusion_ray() order, one path after
+// another; occluded[i] != 0 where ray i is occluded and path_of(i) is its
+// path's state. Resolves every path of the queue.
+template <class PathOf>
+inline void resolve_occlusion_queue(const uint8_t* occluded, size_t rays, PathOf&& path_of) {
+    for (size_t i = 0; i < rays;) {
+        PathState& s = path_of(i);
+        const size_t n = size_t(occlusion_ray_count(s));
+        int unoccluded = 0;
+        for (size_t k = 0; k < n; ++k) unoccluded += occluded[i + k] ? 0 : 1;
+        resolve_occlusion(s, unoccluded);
+        i += n;
+    }
 }
 
 // The AO ray length: the setting, or a tenth of the scene's diagonal.

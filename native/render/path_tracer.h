@@ -1,11 +1,13 @@
 // Depth-first driver of the path state machine (path_state.h): one camera
 // sample's path, each ray traced singly the moment it exists. The reference
-// every batched driver (packets, streams, wavefront) must match bit for bit.
+// every driver that traces many paths together (packets, streams,
+// wavefront) must match bit for bit.
 //
 // The kernel is a template over the few SceneFeatures bits that change which
 // rays exist, so a scene without glass has no refraction code, one without
 // depth of field never samples the lens, and one without emitters traces no
-// shadow rays. The renderer instantiates the variants and picks one.
+// shadow rays. Drivers instantiate the variants and pick one at run time
+// (kernel_variants.h).
 //
 // Bounce limits follow Cycles: after a BSDF sample of type X the total and the
 // per-type counters are incremented; if one exceeds its Blender limit, the
@@ -13,89 +15,53 @@
 // So max_bounces = 0 gives direct lighting only, as in Blender.
 #pragma once
 
+#include <type_traits>
+
 #include "path_state.h"
 
 namespace coherent {
 
-// Booking of traversal work into RenderStats, shared by every driver. The
-// invariant the tests check: the bounces' rays add up to total_rays() and
-// to traversal.rays, and their tests to the traversal totals.
-inline BounceStats& bounce_stats(RenderStats& st, int bounce) {
-    return st.bounces[size_t(std::min(bounce, kStatBounces - 1))];
+// Traces a path's occlusion rays one at a time and resolves them.
+COHERENT_ALWAYS_INLINE void trace_occlusion_rays(const PathContext& ctx, const PathSampler<ImageSampler>& ps,
+                                                 PathState& s, int bounce, RenderStats& st, uint32_t* node_visits) {
+    const int rays = occlusion_ray_count(s);
+    if (rays == 0) return;
+    int unoccluded = 0;
+    for (int k = 0; k < rays; ++k) {
+        TraversalCounters c;
+        const Ray r = occlusion_ray(ctx, ps, s, k);
+        unoccluded += ctx.bvh->occluded(r, &c) || motion_occluded(ctx, s, r, &c) ? 0 : 1;
+        book_single_ray(st, bounce, RayType::Shadow, c, node_visits);
+    }
+    resolve_occlusion(s, unoccluded);
 }
 
-// Work only (node visits, box and triangle tests), not rays: for work that
-// traced no new ray (the moving triangles' BVH after the static one).
-inline void book_work(RenderStats& st, int bounce, const TraversalCounters& c) {
-    st.traversal.node_visits += c.node_visits;
-    st.traversal.box_tests += c.box_tests;
-    st.traversal.triangle_tests += c.triangle_tests;
-    BounceStats& b = bounce_stats(st, bounce);
-    b.node_visits += c.node_visits;
-    b.box_tests += c.box_tests;
-    b.triangle_tests += c.triangle_tests;
-}
-
-// A packet's work, with its SIMD lanes.
-inline void book_work(RenderStats& st, int bounce, const PacketCounters& pc) {
-    TraversalCounters c;
-    c.node_visits = pc.node_visits;
-    c.box_tests = pc.box_tests;
-    c.triangle_tests = pc.triangle_tests;
-    book_work(st, bounce, c);
-    BounceStats& b = bounce_stats(st, bounce);
-    b.box_lanes += pc.box_lanes;
-    b.box_lanes_active += pc.box_lanes_active;
-    b.triangle_lanes += pc.triangle_lanes;
-    b.triangle_lanes_active += pc.triangle_lanes_active;
-}
-
-// `rays` new rays of `type` at `bounce` (their work booked separately).
-inline void book_rays(RenderStats& st, int bounce, RayType type, uint64_t rays) {
-    st.rays[size_t(type)] += rays;
-    st.traversal.rays += rays;
-    bounce_stats(st, bounce).rays += rays;
-}
-
-// One single ray and its work; for heatmaps, its node visits to the path.
-inline void book_single_ray(RenderStats& st, int bounce, RayType type, const TraversalCounters& c,
-                            uint32_t* path_node_visits) {
-    book_rays(st, bounce, type, 1);
-    book_work(st, bounce, c);
-    if (path_node_visits) *path_node_visits += uint32_t(c.node_visits);
-}
-
-template <class Sampler, bool kGlass, bool kDepthOfField, bool kLights>
-PathOutput trace_path(const PathContext& ctx, const PathSampler<Sampler>& ps, int px, int py, RenderStats& st,
+template <bool kGlass, bool kDepthOfField, bool kLights>
+PathOutput trace_path(const PathContext& ctx, const PathSampler<ImageSampler>& ps, int px, int py, RenderStats& st,
                       uint32_t* node_visits = nullptr) {
     const Bvh& bvh = *ctx.bvh;
     PathState s;
-    start_path<Sampler, kDepthOfField>(ctx, ps, px, py, s);
+    start_path<kDepthOfField>(ctx, ps, px, py, s);
     while (s.alive) {
         const int bounce = s.bounce;
         TraversalCounters c;
         Hit hit;
         const bool found = merge_motion_hit(ctx, s, bvh.intersect(s.ray, hit, &c), hit, &c);
         book_single_ray(st, bounce, s.type, c, node_visits);
-        shade_hit<Sampler, kGlass, kLights>(ctx, ps, s, found, hit);
-        if (s.has_shadow) {
-            TraversalCounters cs;
-            const bool occluded = bvh.occluded(s.shadow, &cs) || motion_occluded(ctx, s, s.shadow, &cs);
-            book_single_ray(st, bounce, RayType::Shadow, cs, node_visits);
-            resolve_shadow(s, occluded);
-        }
-        if (s.ao_rays > 0) {
-            int unoccluded = 0;
-            for (int i = 0; i < s.ao_rays; ++i) {
-                TraversalCounters ca;
-                const Ray r = ao_ray(ctx, ps, s, i);
-                unoccluded += bvh.occluded(r, &ca) || motion_occluded(ctx, s, r, &ca) ? 0 : 1;
-                book_single_ray(st, bounce, RayType::Shadow, ca, node_visits);
-            }
-            resolve_ao(s, unoccluded);
-        }
+        shade_hit<kGlass, kLights>(ctx, ps, s, found, hit);
+        trace_occlusion_rays(ctx, ps, s, bounce, st, node_visits);
     }
     return s.out;
+}
+
+// The spelling tests/native/test_wavefront.cpp still uses, from when the
+// sampler was a template parameter; ImageSampler is the only sampler.
+// Remove once that test calls trace_path<kGlass, kDepthOfField, kLights>.
+template <class Sampler, bool kGlass, bool kDepthOfField, bool kLights>
+    requires std::is_same_v<Sampler, ImageSampler>
+PathOutput trace_path(const PathContext& ctx, const PathSampler<ImageSampler>& ps, int px, int py, RenderStats& st,
+                      uint32_t* node_visits = nullptr) {
+    return trace_path<kGlass, kDepthOfField, kLights>(ctx, ps, px, py, st, node_visits);
 }
 
 }  // namespace coherent

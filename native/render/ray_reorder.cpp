@@ -2,32 +2,26 @@
 #include "ray_reorder.h"
 
 #include <immintrin.h>
-#include <time.h>
 
 #include <algorithm>
 #include <array>
 #include <cmath>
 #include <numeric>
 
+#include "../core/thread_time.h"
+
 namespace coherent {
 
 namespace {
 
-// Thread CPU time: reorderings run inside one wave on one thread, and on a
-// shared machine wall time would also count time spent descheduled.
-double thread_seconds() {
-    timespec ts;
-    clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
-    return double(ts.tv_sec) + 1e-9 * double(ts.tv_nsec);
-}
-
-// Starts timing only when someone asked for timings.
+// Starts timing only when someone asked for timings. Thread CPU time:
+// reorderings run inside one wave on one thread.
 struct Stopwatch {
-    explicit Stopwatch(bool on) : on_(on), start_(on ? thread_seconds() : 0.0) {}
+    explicit Stopwatch(bool on) : on_(on), start_(on ? thread_cpu_seconds() : 0.0) {}
     // Adds the time since the last lap to `acc`.
     void lap(double* acc) {
         if (!on_) return;
-        const double now = thread_seconds();
+        const double now = thread_cpu_seconds();
         *acc += now - start_;
         start_ = now;
     }
@@ -163,7 +157,7 @@ const AngleBins kAngleBins;
 namespace {
 
 // The origin box as offsets and scales to the 8-bit grid, computed once per
-// batch: a multiply per axis instead of a divide. A flat or empty axis gets
+// reordering: a multiply per axis instead of a divide. A flat or empty axis gets
 // scale 0 (every origin in cell 0).
 struct KeyFrame32 {
     Vec3f lo{0.0f}, scale{0.0f};
@@ -330,18 +324,16 @@ void sort32(const uint32_t* keys, size_t n, std::vector<uint32_t>& order, Reorde
 
 }  // namespace
 
-size_t compress_sort_decompress(const uint32_t* keys, size_t n, std::vector<uint32_t>& order, ReorderWorkspace& ws,
-                                const ReorderOptions& opt, ReorderTimings* t) {
-    Stopwatch sw(t != nullptr);
-    order.resize(n);
-    if (n == 0) return 0;
+namespace {
 
-    // Compress: one block per run of equal consecutive keys. block_start gets
-    // a sentinel n so that block b's length is start[b + 1] - start[b].
-    // Eight keys at a time are compared with their predecessors: long runs
-    // (background) cost one vector compare per eight rays; in mixed groups
-    // every ray writes a candidate block, which only a key change keeps
-    // (branch-free: runs on foreground geometry are short and random).
+// Compress: one block per run of equal consecutive keys, into
+// ws.block_key / ws.block_start (with a sentinel n, so that block b's length
+// is start[b + 1] - start[b]); returns the number of blocks. Eight keys at a
+// time are compared with their predecessors: long runs (background) cost one
+// vector compare per eight rays; in mixed groups every ray writes a
+// candidate block, which only a key change keeps (branch-free: runs on
+// foreground geometry are short and random).
+size_t compress_runs(const uint32_t* keys, size_t n, ReorderWorkspace& ws) {
     ws.block_start.resize(n + 1);
     ws.block_key.resize(n + 1);
     ws.block_start[0] = 0;
@@ -365,21 +357,15 @@ size_t compress_sort_decompress(const uint32_t* keys, size_t n, std::vector<uint
     }
     ws.block_start[blocks] = uint32_t(n);
     ws.block_key.resize(blocks);
-    sw.lap(t ? &t->compress_seconds : nullptr);
+    return blocks;
+}
 
-    // Sort the blocks by key; ties keep block order, so the whole result is
-    // the stable sort of the rays.
-    ws.block_id.resize(blocks);
-    std::iota(ws.block_id.begin(), ws.block_id.end(), 0u);
-    if (opt.sort == SortAlgorithm::Comparison) comparison_sort32(ws.block_key.data(), blocks, ws.block_id, ws);
-    else radix_sort_pairs(ws.block_key, ws.block_id, ws, opt.digit_bits);
-    sw.lap(t ? &t->sort_seconds : nullptr);
-
-    // Decompress: the running (exclusive) sum of the sorted blocks' lengths
-    // is each block's first output slot; its rays follow consecutively.
-    // Four slots are written unconditionally per block (the next blocks
-    // overwrite the excess, which falls in the 4 slots of padding at the
-    // end at worst), so the common short blocks cost no branch miss.
+// Decompress: the running (exclusive) sum of the sorted blocks' lengths is
+// each block's first output slot; its rays follow consecutively. Four slots
+// are written unconditionally per block (the next blocks overwrite the
+// excess, which falls in the 4 slots of padding at the end at worst), so the
+// common short blocks cost no branch miss.
+void decompress_blocks(const ReorderWorkspace& ws, size_t blocks, size_t n, std::vector<uint32_t>& order) {
     order.resize(n + 4);
     uint32_t offset = 0;
     for (size_t b = 0; b < blocks; ++b) {
@@ -392,6 +378,38 @@ size_t compress_sort_decompress(const uint32_t* keys, size_t n, std::vector<uint
         offset += len;
     }
     order.resize(n);
+}
+
+// Static3D keys as three words per ray, least significant first: pixel
+// within its 8 x 16 tile, tile along the Morton curve, ray index within the
+// pixel.
+void static3d_words(const RayTag* tags, size_t n, std::vector<uint32_t>& words) {
+    words.resize(3 * n);
+    for (size_t i = 0; i < n; ++i) {
+        const RayTag& g = tags[i];
+        words[3 * i + 0] = (uint32_t(g.y) & 15u) * 8u + (uint32_t(g.x) & 7u);
+        words[3 * i + 1] = morton2(uint32_t(g.x) >> 3, uint32_t(g.y) >> 4);
+        words[3 * i + 2] = g.sub;
+    }
+}
+
+}  // namespace
+
+size_t compress_sort_decompress(const uint32_t* keys, size_t n, std::vector<uint32_t>& order, ReorderWorkspace& ws,
+                                const ReorderOptions& opt, ReorderTimings* t) {
+    Stopwatch sw(t != nullptr);
+    order.resize(n);
+    if (n == 0) return 0;
+    const size_t blocks = compress_runs(keys, n, ws);
+    sw.lap(t ? &t->compress_seconds : nullptr);
+    // Sort the blocks by key; ties keep block order, so the whole result is
+    // the stable sort of the rays.
+    ws.block_id.resize(blocks);
+    std::iota(ws.block_id.begin(), ws.block_id.end(), 0u);
+    if (opt.sort == SortAlgorithm::Comparison) comparison_sort32(ws.block_key.data(), blocks, ws.block_id, ws);
+    else radix_sort_pairs(ws.block_key, ws.block_id, ws, opt.digit_bits);
+    sw.lap(t ? &t->sort_seconds : nullptr);
+    decompress_blocks(ws, blocks, n, order);
     sw.lap(t ? &t->decompress_seconds : nullptr);
     if (t) t->sorted_elements += blocks;
     return blocks;
@@ -419,15 +437,7 @@ void compute_ray_order(const Ray* rays, const RayTag* tags, size_t n, ReorderMod
             break;
         }
         case ReorderMode::Static3D: {
-            // Words, least significant first: pixel within its 8 x 16 tile,
-            // tile along the Morton curve, ray index within the pixel.
-            ws.words.resize(3 * n);
-            for (size_t i = 0; i < n; ++i) {
-                const RayTag& g = tags[i];
-                ws.words[3 * i + 0] = (uint32_t(g.y) & 15u) * 8u + (uint32_t(g.x) & 7u);
-                ws.words[3 * i + 1] = morton2(uint32_t(g.x) >> 3, uint32_t(g.y) >> 4);
-                ws.words[3 * i + 2] = g.sub;
-            }
+            static3d_words(tags, n, ws.words);
             sw.lap(t ? &t->key_seconds : nullptr);
             if (opt.sort == SortAlgorithm::Comparison) comparison_sort_words(ws.words.data(), 3, order);
             else radix_sort_words(ws.words.data(), 3, order, ws, opt.digit_bits);

@@ -19,6 +19,7 @@
 #include <thread>
 
 #include "../sample/image_sampler.h"
+#include "kernel_variants.h"
 #include "light_sampling.h"
 #include "packet_paths.h"
 #include "path_tracer.h"
@@ -71,12 +72,45 @@ void render_tile(const TileJob& job, RenderStats& st) {
             if (job.skip(x, y)) continue;
             const PathSampler<ImageSampler> ps(*job.sampler, uint32_t(x), uint32_t(y), job.sample);
             uint32_t visits = 0;
-            const PathOutput o = trace_path<ImageSampler, kGlass, kDepthOfField, kLights>(
-                *job.ctx, ps, x, y, st, job.heatmaps ? &visits : nullptr);
+            const PathOutput o =
+                trace_path<kGlass, kDepthOfField, kLights>(*job.ctx, ps, x, y, st, job.heatmaps ? &visits : nullptr);
             // Single rays use every lane they have: utilisation 1.
             job.add(x, y, o, float(visits), 1.0f, st);
         }
     }
+}
+
+// ICPT: a packet is one Latin-hypercube subset of a region of 2 x 2 blocks
+// (n pixels per block, 4n rays), the pixels that share a sequence; a block's
+// own pixels use n different sequences.
+template <bool kDepthOfField>
+void start_icpt_packets(const TileJob& job, PathTile& tile) {
+    const int n = int(job.sampler->icpt_block_size());
+    std::vector<std::vector<std::pair<int, int>>> subsets(static_cast<size_t>(n));  // pixels of each subset
+    for (int ry = job.y0; ry < job.y1; ry += 2 * n)
+        for (int rx = job.x0; rx < job.x1; rx += 2 * n) {
+            for (auto& list : subsets) list.clear();
+            for (int y = ry; y < std::min(ry + 2 * n, job.y1); ++y)
+                for (int x = rx; x < std::min(rx + 2 * n, job.x1); ++x)
+                    subsets[job.sampler->icpt_subset(uint32_t(x), uint32_t(y), job.sample)].emplace_back(x, y);
+            for (const auto& list : subsets) {
+                for (const auto& [x, y] : list)
+                    if (!job.skip(x, y)) tile.start<kDepthOfField>(*job.ctx, *job.sampler, job.sample, x, y);
+                tile.end_packet();
+            }
+        }
+}
+
+// SPT, CPT: a packet is a rectangle of packet_width x packet_height pixels.
+template <bool kDepthOfField>
+void start_pixel_packets(const TileJob& job, PathTile& tile) {
+    for (int by = job.y0; by < job.y1; by += job.packet_height)
+        for (int bx = job.x0; bx < job.x1; bx += job.packet_width) {
+            for (int y = by; y < std::min(by + job.packet_height, job.y1); ++y)
+                for (int x = bx; x < std::min(bx + job.packet_width, job.x1); ++x)
+                    if (!job.skip(x, y)) tile.start<kDepthOfField>(*job.ctx, *job.sampler, job.sample, x, y);
+            tile.end_packet();
+        }
 }
 
 // Packets: the tile's paths bounce by bounce, rays gathered per pixel packet
@@ -84,51 +118,18 @@ void render_tile(const TileJob& job, RenderStats& st) {
 template <bool kGlass, bool kDepthOfField, bool kLights>
 void render_tile_packets(const TileJob& job, RenderStats& st) {
     if (job.cancelled->load(std::memory_order_relaxed)) return;
-    PathBatch<ImageSampler> batch;
-    batch.clear();
-    auto add_path = [&](int x, int y) {
-        if (!job.skip(x, y)) batch.template start<kDepthOfField>(*job.ctx, *job.sampler, job.sample, x, y);
-    };
-    auto end_packet = [&] {
-        if (int(batch.size()) > batch.packet_begin.back()) batch.packet_begin.push_back(int(batch.size()));
-    };
-    if (job.sampler->type() == SamplerType::Icpt) {
-        // ICPT: a packet is one Latin-hypercube subset of a region of 2 x 2
-        // blocks (n pixels per block, 4n rays), the pixels that share a
-        // sequence; a block's own pixels use n different sequences.
-        const int n = int(job.sampler->icpt_block_size());
-        std::vector<std::vector<std::pair<int, int>>> subsets(static_cast<size_t>(n));  // pixels of each subset
-        for (int ry = job.y0; ry < job.y1; ry += 2 * n)
-            for (int rx = job.x0; rx < job.x1; rx += 2 * n) {
-                for (auto& list : subsets) list.clear();
-                for (int y = ry; y < std::min(ry + 2 * n, job.y1); ++y)
-                    for (int x = rx; x < std::min(rx + 2 * n, job.x1); ++x)
-                        subsets[job.sampler->icpt_subset(uint32_t(x), uint32_t(y), job.sample)].emplace_back(x, y);
-                for (const auto& list : subsets) {
-                    for (const auto& [x, y] : list) add_path(x, y);
-                    end_packet();
-                }
-            }
-    } else {
-        for (int by = job.y0; by < job.y1; by += job.packet_height)
-            for (int bx = job.x0; bx < job.x1; bx += job.packet_width) {
-                for (int y = by; y < std::min(by + job.packet_height, job.y1); ++y)
-                    for (int x = bx; x < std::min(bx + job.packet_width, job.x1); ++x) add_path(x, y);
-                end_packet();
-            }
-    }
-    if (job.heatmaps) {
-        batch.node_visits.assign(batch.size(), 0);
-        batch.lanes.assign(batch.size(), 0);
-        batch.lanes_active.assign(batch.size(), 0);
-    }
+    PathTile tile;
+    tile.clear();
+    if (job.sampler->type() == SamplerType::Icpt) start_icpt_packets<kDepthOfField>(job, tile);
+    else start_pixel_packets<kDepthOfField>(job, tile);
+    if (job.heatmaps) tile.enable_heatmaps();
     auto scratch = std::make_unique<packet_detail::PacketScratch>();
-    trace_batch_packets<ImageSampler, kGlass, kLights>(*job.ctx, job.assembly, batch, *scratch, st);
-    for (size_t p = 0; p < batch.size(); ++p) {
-        const float visits = job.heatmaps ? float(batch.node_visits[p]) : 0.0f;
-        const float util = job.heatmaps && batch.lanes[p] ? float(double(batch.lanes_active[p]) / double(batch.lanes[p]))
-                                                          : 1.0f;
-        job.add(batch.px[p], batch.py[p], batch.states[p].out, visits, util, st);
+    trace_tile_packets<kGlass, kLights>(*job.ctx, job.assembly, tile, *scratch, st);
+    for (size_t p = 0; p < tile.size(); ++p) {
+        const float visits = job.heatmaps ? float(tile.node_visits[p]) : 0.0f;
+        const float util = job.heatmaps && tile.lanes[p] ? float(double(tile.lanes_active[p]) / double(tile.lanes[p]))
+                                                         : 1.0f;
+        job.add(tile.px[p], tile.py[p], tile.states[p].out, visits, util, st);
     }
 }
 
@@ -137,29 +138,31 @@ void render_tile_packets(const TileJob& job, RenderStats& st) {
 template <bool kGlass, bool kDepthOfField, bool kLights>
 void render_tile_streams(const TileJob& job, RenderStats& st) {
     if (job.cancelled->load(std::memory_order_relaxed)) return;
-    PathBatch<ImageSampler> batch;
-    batch.clear();
+    PathTile tile;
+    tile.clear();
     for (int y = job.y0; y < job.y1; ++y)
         for (int x = job.x0; x < job.x1; ++x) {
-            if (!job.skip(x, y)) batch.template start<kDepthOfField>(*job.ctx, *job.sampler, job.sample, x, y);
+            if (!job.skip(x, y)) tile.start<kDepthOfField>(*job.ctx, *job.sampler, job.sample, x, y);
         }
     StreamScratch scratch;
-    trace_batch_streams<ImageSampler, kGlass, kLights>(*job.ctx, batch, scratch, st);
+    trace_tile_streams<kGlass, kLights>(*job.ctx, tile, scratch, st);
     // Streams keep no per-ray visit counts (traversal_counts_path_visits):
     // the BVH Visits heatmap stays 0.
-    for (size_t p = 0; p < batch.size(); ++p) job.add(batch.px[p], batch.py[p], batch.states[p].out, 0.0f, 1.0f, st);
+    for (size_t p = 0; p < tile.size(); ++p) job.add(tile.px[p], tile.py[p], tile.states[p].out, 0.0f, 1.0f, st);
 }
 
 // One WavefrontRenderer (and its wave buffers) per thread, kept across passes.
 struct WavefrontPool {
     const PathContext* ctx;
     WavefrontOptions options;
-    bool glass, depth_of_field, lights;
+    KernelFeatures features;
     tbb::enumerable_thread_specific<std::unique_ptr<WavefrontRenderer>> per_thread;
 
     WavefrontRenderer& local() {
         std::unique_ptr<WavefrontRenderer>& w = per_thread.local();
-        if (!w) w = std::make_unique<WavefrontRenderer>(*ctx, options, glass, depth_of_field, lights);
+        if (!w)
+            w = std::make_unique<WavefrontRenderer>(*ctx, options, features.glass, features.depth_of_field,
+                                                    features.lights);
         return *w;
     }
 };
@@ -178,35 +181,105 @@ void render_tile_wavefront(const TileJob& job, RenderStats& st) {
 
 using TileFn = void (*)(const TileJob&, RenderStats&);
 
-template <Traversal kTraversal, bool G, bool D, bool L>
-constexpr TileFn tile_fn() {
-    if constexpr (kTraversal == Traversal::Packet) return &render_tile_packets<G, D, L>;
-    else if constexpr (kTraversal == Traversal::Stream) return &render_tile_streams<G, D, L>;
-    else return &render_tile<G, D, L>;
+TileFn select_tile_kernel(Traversal traversal, const KernelFeatures& features) {
+    // The wavefront pipeline selects its own kernel variant (wavefront.h).
+    if (traversal == Traversal::Wavefront) return &render_tile_wavefront;
+    return select_kernel_variant(features, [traversal](auto g, auto d, auto l) -> TileFn {
+        switch (traversal) {
+            case Traversal::Packet: return &render_tile_packets<g(), d(), l()>;
+            case Traversal::Stream: return &render_tile_streams<g(), d(), l()>;
+            case Traversal::Single:
+            case Traversal::Wavefront:
+            case Traversal::Auto: break;  // Auto is resolved before rendering
+        }
+        return &render_tile<g(), d(), l()>;
+    });
 }
 
-template <Traversal kTraversal>
-TileFn select_kernel_for(bool glass, bool dof, bool lights) {
-    static constexpr TileFn table[2][2][2] = {
-        {{tile_fn<kTraversal, false, false, false>(), tile_fn<kTraversal, false, false, true>()},
-         {tile_fn<kTraversal, false, true, false>(), tile_fn<kTraversal, false, true, true>()}},
-        {{tile_fn<kTraversal, true, false, false>(), tile_fn<kTraversal, true, false, true>()},
-         {tile_fn<kTraversal, true, true, false>(), tile_fn<kTraversal, true, true, true>()}},
-    };
-    return table[glass ? 1 : 0][dof ? 1 : 0][lights ? 1 : 0];
-}
+// How a traversal cuts the border into tiles, and its kernel.
+struct TileLayout {
+    TileFn kernel;
+    int tw, th, tiles_x, tiles;
+};
 
-TileFn select_kernel(Traversal traversal, bool glass, bool dof, bool lights) {
-    switch (traversal) {
-        case Traversal::Packet: return select_kernel_for<Traversal::Packet>(glass, dof, lights);
-        case Traversal::Stream: return select_kernel_for<Traversal::Stream>(glass, dof, lights);
-        // The wavefront pipeline selects its own kernel variant (wavefront.h).
-        case Traversal::Wavefront: return &render_tile_wavefront;
-        case Traversal::Single:
-        case Traversal::Auto: break;  // resolved before rendering
+TileLayout tile_layout(const RenderSettings& rs, Traversal traversal, const KernelFeatures& features) {
+    TileLayout l;
+    l.kernel = select_tile_kernel(traversal, features);
+    const int bw = rs.border_width(), bh = rs.border_height();
+    // Packet traversal: tiles hold whole packets (a multiple of the packet
+    // size, about tile_size pixels on a side), so no packet straddles tiles.
+    const bool packets = traversal == Traversal::Packet;
+    l.tw = packets ? rs.packet_width * std::max(1, rs.tile_size / rs.packet_width) : rs.tile_size;
+    l.th = packets ? rs.packet_height * std::max(1, rs.tile_size / rs.packet_height) : rs.tile_size;
+    // ICPT packets are subsets of regions of 2 x 2 blocks of side n: tiles
+    // hold whole regions.
+    if (packets && rs.resolved_sampler() == SamplerType::Icpt) {
+        const int region = 2 * std::min(rs.packet_width, rs.packet_height);
+        l.tw = l.th = region * std::max(1, rs.tile_size / region);
     }
-    return select_kernel_for<Traversal::Single>(glass, dof, lights);
+    // Streams amortise a node visit over the rays queued at it: bigger tiles
+    // (128 x 128 paths per stream).
+    if (traversal == Traversal::Stream) l.tw = l.th = 4 * rs.tile_size;
+    // Wavefront: bands of whole rows holding about wave_size paths, at least
+    // two bands when the border has two rows (so both threads work).
+    if (traversal == Traversal::Wavefront) {
+        l.tw = std::max(bw, 1);
+        l.th = std::clamp(rs.wave_size / l.tw, 1, std::max(1, (bh + 1) / 2));
+    }
+    l.tiles_x = (bw + l.tw - 1) / l.tw;
+    l.tiles = l.tiles_x * ((bh + l.th - 1) / l.th);
+    return l;
 }
+
+// The sampler's tables cover one pass (one sample over the image) and are
+// rebuilt per pass: a few KB, independent of resolution and spp.
+SamplerConfig sampler_config(const RenderSettings& rs) {
+    SamplerConfig c;
+    c.type = rs.resolved_sampler();
+    c.seed = rs.seed;
+    c.packet_width = rs.packet_width;
+    c.packet_height = rs.packet_height;
+    c.scope = rs.sequence_scope;
+    c.dims = PathDims::count(rs.max_bounces);
+    return c;
+}
+
+// Progress reports to the caller's callback: after every pass, and every
+// 250 ms within a pass from the calling thread (which takes part in the
+// parallel loop), never concurrently.
+class ProgressReporter {
+public:
+    ProgressReporter(const ProgressCallback& callback, int spp, Clock::time_point start)
+        : callback_(callback), spp_(spp), start_(start), last_report_(Clock::now()),
+          caller_(std::this_thread::get_id()) {}
+
+    double seconds() const { return std::chrono::duration<double>(Clock::now() - start_).count(); }
+    // Whether a report within a pass is due on this thread.
+    bool due() const {
+        return std::this_thread::get_id() == caller_ && Clock::now() - last_report_ >= std::chrono::milliseconds(250);
+    }
+    // Sets stats.seconds and reports; returns false if the callback asked to cancel.
+    bool report(int samples_done, double fraction, RenderStats& stats) {
+        stats.seconds = seconds();
+        if (!callback_) return true;
+        Progress p;
+        p.samples_done = samples_done;
+        p.samples_total = spp_;
+        p.fraction = fraction;
+        p.seconds = stats.seconds;
+        p.error_estimate = stats.error_estimate;
+        p.stats = &stats;
+        const bool go_on = callback_(p);
+        last_report_ = Clock::now();
+        return go_on;
+    }
+
+private:
+    const ProgressCallback& callback_;
+    int spp_;
+    Clock::time_point start_, last_report_;
+    std::thread::id caller_;
+};
 
 }  // namespace
 
@@ -249,151 +322,118 @@ std::shared_ptr<Bvh> Renderer::build_bvh(const Scene& scene, const BvhBuildOptio
     return bvh;
 }
 
+namespace {
+
+// The kernel variant a render needs. Without any emitter no path can carry
+// light: the kernel without NEE, light hits and world MIS is exact;
+// force_all_features keeps it on. Lens sampling only where the camera has
+// depth of field and the integrator is one that models it (render_modes.h).
+KernelFeatures kernel_features(const RenderSettings& rs, const SceneFeatures& features, const LightSet& lights) {
+    KernelFeatures k;
+    k.glass = features.glass;
+    k.depth_of_field = features.depth_of_field && integrator_uses_lens(rs.integrator);
+    k.lights = rs.force_all_features || (!lights.empty() && features.any_light());
+    return k;
+}
+
+std::unique_ptr<WavefrontPool> make_wavefront_pool(const PathContext& ctx, const RenderSettings& rs,
+                                                   const KernelFeatures& features) {
+    auto pool = std::make_unique<WavefrontPool>();
+    pool->ctx = &ctx;
+    pool->options = WavefrontOptions::from_settings(rs);
+    pool->options.node_visits = rs.heatmaps;
+    pool->features = features;
+    return pool;
+}
+
+// What every tile of pass `pass` shares (all but the pixel rectangle).
+TileJob pass_job(const PathContext& ctx, const ImageSampler& sampler, Film& film, const RenderSettings& rs, int pass,
+                 const std::atomic<bool>& cancelled, const std::vector<uint8_t>& converged, WavefrontPool* wavefront) {
+    TileJob job;
+    job.ctx = &ctx;
+    job.sampler = &sampler;
+    job.film = &film;
+    job.border_x0 = rs.border_x0;
+    job.border_y0 = rs.border_y0;
+    job.sample = uint32_t(pass);
+    job.cancelled = &cancelled;
+    job.converged = converged.empty() ? nullptr : converged.data();
+    job.film_width = rs.border_width();
+    job.heatmaps = rs.heatmaps;
+    job.packet_width = rs.packet_width;
+    job.packet_height = rs.packet_height;
+    job.assembly = rs.assembly;
+    job.wavefront = wavefront;
+    return job;
+}
+
+// Tile t of `layout`: `pass_job` with the tile's pixel rectangle.
+TileJob place_tile(const TileJob& pass_job, const TileLayout& layout, int t, const RenderSettings& rs) {
+    TileJob job = pass_job;
+    job.x0 = rs.border_x0 + (t % layout.tiles_x) * layout.tw;
+    job.y0 = rs.border_y0 + (t / layout.tiles_x) * layout.th;
+    job.x1 = std::min(job.x0 + layout.tw, rs.border_x1);
+    job.y1 = std::min(job.y0 + layout.th, rs.border_y1);
+    return job;
+}
+
+// One pass: every tile of `layout` in parallel inside `arena`, statistics
+// per thread, summed into `stats` at the end. on_tile_done(tiles done so
+// far) runs after each tile, on the thread that rendered it.
+template <class OnTileDone>
+void render_tiles(tbb::task_arena& arena, const TileLayout& layout, const TileJob& pass_job, const RenderSettings& rs,
+                  RenderStats& stats, OnTileDone&& on_tile_done) {
+    tbb::enumerable_thread_specific<RenderStats> local;
+    std::atomic<int> tiles_done{0};
+    arena.execute([&] {
+        tbb::parallel_for(tbb::blocked_range<int>(0, layout.tiles, 1), [&](const tbb::blocked_range<int>& r) {
+            RenderStats& st = local.local();
+            for (int t = r.begin(); t != r.end(); ++t) {
+                if (pass_job.cancelled->load(std::memory_order_relaxed)) return;
+                layout.kernel(place_tile(pass_job, layout, t, rs), st);
+                on_tile_done(tiles_done.fetch_add(1, std::memory_order_relaxed) + 1);
+            }
+        });
+    });
+    for (const RenderStats& s : local) stats += s;
+}
+
+}  // namespace
+
 bool Renderer::render(const ProgressCallback& progress) {
     const auto start = Clock::now();
     const LightSet lights(scene_);
     PathContext ctx{&scene_, bvh_.get(), &lights, &settings_};
     ctx.ao_distance = resolve_ao_distance(settings_, scene_);
     ctx.motion = motion_.empty() ? nullptr : &motion_;
-    // The sampler's tables cover one pass (one sample over the image) and are
-    // rebuilt per pass: a few KB, independent of resolution and spp.
-    SamplerConfig sampler_config;
-    sampler_config.type = settings_.resolved_sampler();
-    sampler_config.seed = settings_.seed;
-    sampler_config.packet_width = settings_.packet_width;
-    sampler_config.packet_height = settings_.packet_height;
-    sampler_config.scope = settings_.sequence_scope;
-    sampler_config.dims = PathDims::count(settings_.max_bounces);
-    // Without any emitter no path can carry light: the kernel without NEE,
-    // light hits and world MIS is exact. force_all_features keeps it on.
-    const bool use_lights = settings_.force_all_features || (!lights.empty() && features_.any_light());
-    // Lens sampling only where the camera has depth of field and the
-    // integrator is one that models it (render_modes.h).
-    const bool dof = features_.depth_of_field && integrator_uses_lens(settings_.integrator);
-    const int bw = settings_.border_width(), bh = settings_.border_height();
+    const SamplerConfig samplers = sampler_config(settings_);
+    const KernelFeatures kernel = kernel_features(settings_, features_, lights);
     std::unique_ptr<WavefrontPool> wavefront;
-    // How a traversal cuts the border into tiles, and its kernel.
-    struct Layout {
-        TileFn kernel;
-        int tw, th, tiles_x, tiles;
-    };
-    auto make_layout = [&](Traversal traversal) {
-        Layout l;
-        l.kernel = select_kernel(traversal, features_.glass, dof, use_lights);
-        // Packet traversal: tiles hold whole packets (a multiple of the
-        // packet size, about tile_size pixels on a side), so no packet
-        // straddles tiles.
-        const bool packets = traversal == Traversal::Packet;
-        l.tw = packets ? settings_.packet_width * std::max(1, settings_.tile_size / settings_.packet_width)
-                       : settings_.tile_size;
-        l.th = packets ? settings_.packet_height * std::max(1, settings_.tile_size / settings_.packet_height)
-                       : settings_.tile_size;
-        // ICPT packets are subsets of regions of 2 x 2 blocks of side n:
-        // tiles hold whole regions.
-        if (packets && settings_.resolved_sampler() == SamplerType::Icpt) {
-            const int region = 2 * std::min(settings_.packet_width, settings_.packet_height);
-            l.tw = l.th = region * std::max(1, settings_.tile_size / region);
-        }
-        // Streams amortise a node visit over the rays queued at it: bigger
-        // tiles (128 x 128 paths per stream).
-        if (traversal == Traversal::Stream) l.tw = l.th = 4 * settings_.tile_size;
-        // Wavefront: bands of whole rows holding about wave_size paths, at
-        // least two bands when the border has two rows (so both threads work).
-        if (traversal == Traversal::Wavefront) {
-            l.tw = std::max(bw, 1);
-            l.th = std::clamp(settings_.wave_size / l.tw, 1, std::max(1, (bh + 1) / 2));
-            wavefront = std::make_unique<WavefrontPool>();
-            wavefront->ctx = &ctx;
-            wavefront->options = WavefrontOptions::from_settings(settings_);
-            wavefront->options.node_visits = settings_.heatmaps;
-            wavefront->glass = features_.glass;
-            wavefront->depth_of_field = dof;
-            wavefront->lights = use_lights;
-        }
-        l.tiles_x = (bw + l.tw - 1) / l.tw;
-        l.tiles = l.tiles_x * ((bh + l.th - 1) / l.th);
-        return l;
-    };
-    Layout layout = make_layout(settings_.traversal);
+    if (settings_.traversal == Traversal::Wavefront) wavefront = make_wavefront_pool(ctx, settings_, kernel);
+    TileLayout layout = tile_layout(settings_, settings_.traversal, kernel);
     // Traversal Auto chose packets (CPT): whether they beat single rays
     // depends on the scene and the resolution (docs/results/coherent_paths.md:
     // 1.1-1.3x on Sponza at 512 x 512, 0.9x on the dragon), so the first two
     // passes measure it: pass 0 with single rays, pass 1 with packets, and
     // the faster renders the rest. Both trace the same hits: same image.
     const bool trial = auto_traversal_ && settings_.traversal == Traversal::Packet && settings_.spp >= 4;
-    const Layout single_layout = trial ? make_layout(Traversal::Single) : layout;
+    const TileLayout single_layout = trial ? tile_layout(settings_, Traversal::Single, kernel) : layout;
     double trial_seconds[2] = {0.0, 0.0};
     const int tiles = layout.tiles;
     const int spp = std::max(settings_.spp, 0);
 
     tbb::task_arena arena(settings_.threads > 0 ? settings_.threads : tbb::task_arena::automatic);
-    const std::thread::id caller = std::this_thread::get_id();
-    auto last_report = Clock::now();
-    const auto report_interval = std::chrono::milliseconds(250);
-
-    auto seconds_since_start = [&] { return std::chrono::duration<double>(Clock::now() - start).count(); };
-    auto report = [&](int samples_done, double fraction) {
-        stats_.seconds = seconds_since_start();
-        if (!progress) return;
-        Progress p;
-        p.samples_done = samples_done;
-        p.samples_total = spp;
-        p.fraction = fraction;
-        p.seconds = stats_.seconds;
-        p.error_estimate = stats_.error_estimate;
-        p.stats = &stats_;
-        if (!progress(p)) cancel();
-        last_report = Clock::now();
-    };
-
-    stats_.spp = 0;
-    stats_.error_estimate = -1.0;
-    stats_.pixels = uint64_t(bw) * uint64_t(bh);
-    stats_.converged_pixels = 0;
-    converged_.clear();
-    if (settings_.adaptive) converged_.assign(size_t(bw) * size_t(bh), 0);
-    // Even, so that both half-buffers hold equally many samples when first judged.
-    const int adaptive_min = std::max(2, settings_.adaptive_min_samples + (settings_.adaptive_min_samples & 1));
+    ProgressReporter reporter(progress, spp, start);
+    reset_stats();
     for (int pass = 0; pass < spp && !cancelled() && tiles > 0; ++pass) {
-        const ImageSampler sampler(sampler_config, uint32_t(pass), 1);
-        const Layout& L = trial && pass == 0 ? single_layout : layout;
+        const ImageSampler sampler(samplers, uint32_t(pass), 1);
+        const TileLayout& L = trial && pass == 0 ? single_layout : layout;
         const auto pass_start = Clock::now();
-        tbb::enumerable_thread_specific<RenderStats> local;
-        std::atomic<int> tiles_done{0};
-        arena.execute([&] {
-            tbb::parallel_for(tbb::blocked_range<int>(0, L.tiles, 1), [&](const tbb::blocked_range<int>& r) {
-                RenderStats& st = local.local();
-                for (int t = r.begin(); t != r.end(); ++t) {
-                    if (cancelled()) return;
-                    TileJob job;
-                    job.ctx = &ctx;
-                    job.sampler = &sampler;
-                    job.film = &film_;
-                    job.x0 = settings_.border_x0 + (t % L.tiles_x) * L.tw;
-                    job.y0 = settings_.border_y0 + (t / L.tiles_x) * L.th;
-                    job.x1 = std::min(job.x0 + L.tw, settings_.border_x1);
-                    job.y1 = std::min(job.y0 + L.th, settings_.border_y1);
-                    job.border_x0 = settings_.border_x0;
-                    job.border_y0 = settings_.border_y0;
-                    job.sample = uint32_t(pass);
-                    job.cancelled = &cancelled_;
-                    job.converged = converged_.empty() ? nullptr : converged_.data();
-                    job.film_width = bw;
-                    job.heatmaps = settings_.heatmaps;
-                    job.packet_width = settings_.packet_width;
-                    job.packet_height = settings_.packet_height;
-                    job.assembly = settings_.assembly;
-                    job.wavefront = wavefront.get();
-                    L.kernel(job, st);
-                    const int done = tiles_done.fetch_add(1, std::memory_order_relaxed) + 1;
-                    // Periodic progress within a long pass, always on the calling
-                    // thread (which takes part in the parallel loop).
-                    if (std::this_thread::get_id() == caller && Clock::now() - last_report >= report_interval)
-                        report(pass, (pass + double(done) / L.tiles) / spp);
-                }
-            });
+        const TileJob job = pass_job(ctx, sampler, film_, settings_, pass, cancelled_, converged_, wavefront.get());
+        render_tiles(arena, L, job, settings_, stats_, [&](int tiles_done) {
+            if (reporter.due() && !reporter.report(pass, (pass + double(tiles_done) / L.tiles) / spp, stats_))
+                cancel();
         });
-        for (const RenderStats& s : local) stats_ += s;
         if (cancelled()) break;
         if (trial && pass < 2) {
             trial_seconds[pass] = std::chrono::duration<double>(Clock::now() - pass_start).count();
@@ -406,24 +446,40 @@ bool Renderer::render(const ProgressCallback& progress) {
         stats_.spp = passes_done;
         // O(pixels), negligible next to a pass of path tracing.
         if (passes_done >= 2) stats_.error_estimate = film_.relative_rmse_estimate();
-        report(passes_done, double(passes_done) / spp);
-        // Adaptive sampling decides only at even pass counts, where every
-        // unconverged pixel holds as many even as odd samples.
-        if (settings_.adaptive && passes_done >= adaptive_min && passes_done % 2 == 0 && passes_done < spp) {
-            stats_.converged_pixels = update_convergence();
-            if (stats_.converged_pixels == stats_.pixels) break;  // nothing left to sample
-        }
-        // Stopping rules. The error target is checked only after an even
-        // number of passes, where both halves hold equally many samples.
-        if (settings_.target_error > 0.0 && passes_done >= 2 && passes_done % 2 == 0 &&
-            stats_.error_estimate >= 0.0 && stats_.error_estimate <= settings_.target_error)
-            break;
-        // stats_.seconds was set by report() above: the decision uses exactly
-        // the time the progress callback was shown.
-        if (settings_.time_limit > 0.0 && stats_.seconds >= settings_.time_limit) break;
+        if (!reporter.report(passes_done, double(passes_done) / spp, stats_)) cancel();
+        if (stop_after_pass(passes_done, spp)) break;
     }
-    stats_.seconds = seconds_since_start();
+    stats_.seconds = reporter.seconds();
     return !cancelled();
+}
+
+void Renderer::reset_stats() {
+    const int bw = settings_.border_width(), bh = settings_.border_height();
+    stats_.spp = 0;
+    stats_.error_estimate = -1.0;
+    stats_.pixels = uint64_t(bw) * uint64_t(bh);
+    stats_.converged_pixels = 0;
+    converged_.clear();
+    if (settings_.adaptive) converged_.assign(size_t(bw) * size_t(bh), 0);
+}
+
+bool Renderer::stop_after_pass(int passes_done, int spp) {
+    // Adaptive sampling decides only at even pass counts, where every
+    // unconverged pixel holds as many even as odd samples; the first time
+    // at adaptive_min_samples rounded up to even.
+    const int adaptive_min = std::max(2, settings_.adaptive_min_samples + (settings_.adaptive_min_samples & 1));
+    if (settings_.adaptive && passes_done >= adaptive_min && passes_done % 2 == 0 && passes_done < spp) {
+        stats_.converged_pixels = update_convergence();
+        if (stats_.converged_pixels == stats_.pixels) return true;  // nothing left to sample
+    }
+    // The error target is checked only after an even number of passes,
+    // where both halves hold equally many samples.
+    if (settings_.target_error > 0.0 && passes_done >= 2 && passes_done % 2 == 0 && stats_.error_estimate >= 0.0 &&
+        stats_.error_estimate <= settings_.target_error)
+        return true;
+    // stats_.seconds was set by the pass's progress report: the decision
+    // uses exactly the time the progress callback was shown.
+    return settings_.time_limit > 0.0 && stats_.seconds >= settings_.time_limit;
 }
 
 uint64_t Renderer::update_convergence() {

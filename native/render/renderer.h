@@ -81,6 +81,10 @@ private:
     std::vector<uint8_t> converged_;
     // Marks pixels converged by the rule in settings.h; returns how many are now.
     uint64_t update_convergence();
+    // render() in steps: statistics and convergence flags of a new render;
+    // after a pass, adaptive sampling and the stopping rules (whether to stop).
+    void reset_stats();
+    bool stop_after_pass(int passes_done, int spp);
     std::atomic<bool> cancelled_{false};
     // The settings asked for Traversal::Auto (resolved in the constructor;
     // render() may still trade packets for single rays after measuring).

@@ -1,12 +1,15 @@
-// Render statistics: what was traced, by ray type, and what was discarded.
+// Render statistics: what was traced, by ray type and bounce, and what was
+// discarded; and how every driver books its rays and traversal work.
 #pragma once
 
+#include <algorithm>
 #include <array>
 #include <cstdint>
 #include <optional>
 #include <string>
 
 #include "../accel/bvh.h"
+#include "../accel/ray_packet.h"
 
 namespace coherent {
 
@@ -83,5 +86,53 @@ struct RenderStats {
     }
     RenderStats& operator+=(const RenderStats& o);
 };
+
+// Booking of traversal work into RenderStats, shared by every driver. The
+// invariant the tests check: the bounces' rays add up to total_rays() and
+// to traversal.rays, and their tests to the traversal totals.
+inline BounceStats& bounce_stats(RenderStats& st, int bounce) {
+    return st.bounces[size_t(std::min(bounce, kStatBounces - 1))];
+}
+
+// Work only (node visits, box and triangle tests), not rays: for work that
+// traced no new ray (the moving triangles' BVH after the static one).
+inline void book_work(RenderStats& st, int bounce, const TraversalCounters& c) {
+    st.traversal.node_visits += c.node_visits;
+    st.traversal.box_tests += c.box_tests;
+    st.traversal.triangle_tests += c.triangle_tests;
+    BounceStats& b = bounce_stats(st, bounce);
+    b.node_visits += c.node_visits;
+    b.box_tests += c.box_tests;
+    b.triangle_tests += c.triangle_tests;
+}
+
+// A packet's work, with its SIMD lanes.
+inline void book_work(RenderStats& st, int bounce, const PacketCounters& pc) {
+    TraversalCounters c;
+    c.node_visits = pc.node_visits;
+    c.box_tests = pc.box_tests;
+    c.triangle_tests = pc.triangle_tests;
+    book_work(st, bounce, c);
+    BounceStats& b = bounce_stats(st, bounce);
+    b.box_lanes += pc.box_lanes;
+    b.box_lanes_active += pc.box_lanes_active;
+    b.triangle_lanes += pc.triangle_lanes;
+    b.triangle_lanes_active += pc.triangle_lanes_active;
+}
+
+// `rays` new rays of `type` at `bounce` (their work booked separately).
+inline void book_rays(RenderStats& st, int bounce, RayType type, uint64_t rays) {
+    st.rays[size_t(type)] += rays;
+    st.traversal.rays += rays;
+    bounce_stats(st, bounce).rays += rays;
+}
+
+// One single ray and its work; for heatmaps, its node visits to the path.
+inline void book_single_ray(RenderStats& st, int bounce, RayType type, const TraversalCounters& c,
+                            uint32_t* path_node_visits) {
+    book_rays(st, bounce, type, 1);
+    book_work(st, bounce, c);
+    if (path_node_visits) *path_node_visits += uint32_t(c.node_visits);
+}
 
 }  // namespace coherent

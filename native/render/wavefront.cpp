@@ -1,33 +1,71 @@
 // The wavefront pipeline (see wavefront.h).
 #include "wavefront.h"
 
-#include <time.h>
-
 #include <algorithm>
 #include <vector>
 
 #include "../accel/ray_packet.h"
-#include "path_tracer.h"
+#include "../core/thread_time.h"
+#include "kernel_variants.h"
+#include "path_state.h"
 
 namespace coherent {
 
-namespace {
-
-double thread_seconds() {
-    timespec ts;
-    clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
-    return double(ts.tv_sec) + 1e-9 * double(ts.tv_nsec);
-}
+namespace wavefront_detail {
 
 template <class T>
 size_t capacity_bytes(const std::vector<T>& v) {
     return v.capacity() * sizeof(T);
 }
 
-// Occlusion batch entries: what a ray's result resolves.
-constexpr uint8_t kShadowRay = 0, kAoRay = 1;
+// One ray queue: a wave's extension rays, or its occlusion rays, of one
+// bounce (index i = ray in the order it was queued, path-major). Results are
+// stored by queue index whatever order the rays were traced in.
+struct RayQueue {
+    std::vector<Ray> rays;
+    std::vector<RayTag> tags;     // for the static reorder modes
+    std::vector<uint32_t> owner;  // path of each ray
+    std::vector<Hit> hits;        // extension queues: closest hits
+    std::vector<uint8_t> flag;    // extension: found; occlusion: occluded
 
-}  // namespace
+    size_t size() const { return rays.size(); }
+    void push(const Ray& r, RayTag tag, uint32_t path) {
+        rays.push_back(r);
+        tags.push_back(tag);
+        owner.push_back(path);
+    }
+    void clear() {
+        rays.clear();
+        tags.clear();
+        owner.clear();
+    }
+    size_t bytes() const {
+        return capacity_bytes(rays) + capacity_bytes(tags) + capacity_bytes(owner) + capacity_bytes(hits) +
+               capacity_bytes(flag);
+    }
+};
+
+// How a queue is traced: its traced order (a permutation of queue indices),
+// the rays gathered into that order, and packets.
+struct TraceScratch {
+    std::vector<uint32_t> order;  // traced position -> queue index
+    std::vector<Ray> traced_rays;  // the queue's rays in traced order (gather)
+    ReorderWorkspace ws;
+    // Packets (WavefrontOptions::packet_size > 0).
+    std::unique_ptr<RayPacket> packet;
+    std::unique_ptr<HitPacket> hit_packet;
+    std::vector<uint32_t> lane_visits;
+
+    size_t bytes() const {
+        size_t b = capacity_bytes(order) + capacity_bytes(traced_rays) + capacity_bytes(lane_visits) + ws.bytes();
+        if (packet) b += sizeof(RayPacket) + sizeof(HitPacket);
+        return b;
+    }
+};
+
+}  // namespace wavefront_detail
+
+using namespace wavefront_detail;
 
 WavefrontOptions WavefrontOptions::from_settings(const RenderSettings& rs) {
     WavefrontOptions o;
@@ -38,43 +76,20 @@ WavefrontOptions WavefrontOptions::from_settings(const RenderSettings& rs) {
 }
 
 // Flat per-path arrays (index p = path of the wave, in row order of its
-// pixels) and one batch of rays (index i = ray in the order it was queued,
-// path-major). A batch's results are stored by queue index whatever order
-// the rays were traced in.
+// pixels), the ray queue of the current stage and its trace scratch.
 struct WavefrontRenderer::Buffers {
     // Per path.
     std::vector<int> px, py;
     std::vector<PathSampler<ImageSampler>> samplers;
     std::vector<PathState> states;
-    std::vector<uint32_t> visits;  // node visits (heatmaps)
-    // One batch.
-    std::vector<Ray> rays, traced_rays;  // queue order; traced order (gather)
-    std::vector<RayTag> tags;
-    std::vector<uint32_t> owner;         // path of each ray
-    std::vector<uint32_t> shaded;        // paths shaded in the current bounce
-    std::vector<uint8_t> kind;           // occlusion batches: kShadowRay / kAoRay
-    std::vector<Hit> hits;               // extension results
-    std::vector<uint8_t> flag;           // extension: found; occlusion: occluded
-    std::vector<uint32_t> order;         // traced position -> queue index
-    ReorderWorkspace ws;
-    // Packets (WavefrontOptions::packet_size > 0).
-    std::unique_ptr<RayPacket> packet;
-    std::unique_ptr<HitPacket> hit_packet;
-    std::vector<uint32_t> lane_visits;
+    std::vector<uint32_t> visits;   // node visits (heatmaps)
+    std::vector<uint32_t> shaded;   // paths shaded in the current bounce
+    RayQueue queue;
+    TraceScratch trace;
 
     size_t bytes() const {
-        size_t b = capacity_bytes(px) + capacity_bytes(py) + capacity_bytes(samplers) + capacity_bytes(states) +
-                   capacity_bytes(visits) + capacity_bytes(rays) + capacity_bytes(traced_rays) + capacity_bytes(tags) +
-                   capacity_bytes(owner) + capacity_bytes(shaded) + capacity_bytes(kind) + capacity_bytes(hits) + capacity_bytes(flag) +
-                   capacity_bytes(order) + capacity_bytes(lane_visits) + ws.bytes();
-        if (packet) b += sizeof(RayPacket) + sizeof(HitPacket);
-        return b;
-    }
-    void clear_batch() {
-        rays.clear();
-        tags.clear();
-        owner.clear();
-        kind.clear();
+        return capacity_bytes(px) + capacity_bytes(py) + capacity_bytes(samplers) + capacity_bytes(states) +
+               capacity_bytes(visits) + capacity_bytes(shaded) + queue.bytes() + trace.bytes();
     }
 };
 
@@ -82,100 +97,197 @@ namespace {
 
 using Buffers = WavefrontRenderer::Buffers;
 
-// Reorders and traces the queued batch: closest hits (extension rays) or
-// occlusion (shadow and AO rays). Results land at the rays' queue indices.
+// The j-th traced ray of a queue and its queue index, for any reorder and
+// gather choice.
+struct TracedOrder {
+    const Ray* rays;          // queue order, or traced order when gathered
+    const uint32_t* order;    // traced position -> queue index; null: identity
+    bool through_permutation;  // reordered but not gathered: rays[order[j]]
+
+    uint32_t queue_index(size_t j) const { return order ? order[j] : uint32_t(j); }
+    const Ray& ray(size_t j, uint32_t i) const { return through_permutation ? rays[i] : rays[j]; }
+};
+
+// Reorders the queue (ray_reorder.h) into b.trace.order.
+void reorder_queue(const WavefrontOptions& opt, Buffers& b, RenderStats& st, WavefrontStats& ws) {
+    ReorderTimings t;
+    compute_ray_order(b.queue.rays.data(), b.queue.tags.data(), b.queue.size(), opt.reorder, b.trace.ws,
+                      b.trace.order, &t, opt.sort);
+    ws.reorder += t;
+    st.sort_seconds += t.total();
+}
+
+// The traced order of the queue; gathers its rays into that order if asked.
+TracedOrder traced_order(const WavefrontOptions& opt, bool ordered, Buffers& b) {
+    const RayQueue& q = b.queue;
+    if (!ordered) return {q.rays.data(), nullptr, false};
+    if (!opt.gather) return {q.rays.data(), b.trace.order.data(), true};
+    b.trace.traced_rays.resize(q.size());
+    for (size_t j = 0; j < q.size(); ++j) b.trace.traced_rays[j] = q.rays[b.trace.order[j]];
+    return {b.trace.traced_rays.data(), b.trace.order.data(), false};
+}
+
+// The queue's rays one at a time, in traced order.
 template <bool kOcclusion>
-void trace_batch(const Bvh& bvh, const WavefrontOptions& opt, bool reorder, Buffers& b, int bounce,
-                 RenderStats& st, WavefrontStats& ws) {
-    const size_t n = b.rays.size();
-    b.flag.assign(n, 0);
-    if constexpr (!kOcclusion) b.hits.assign(n, Hit{});
-    st.bounces[size_t(std::min(bounce, kStatBounces - 1))].rays += n;
+void trace_singly(const Bvh& bvh, const WavefrontOptions& opt, const TracedOrder& traced, Buffers& b, int bounce,
+                  RenderStats& st, bool per_path) {
+    RayQueue& q = b.queue;
+    for (size_t j = 0; j < q.size(); ++j) {
+        const uint32_t i = traced.queue_index(j);
+        const Ray& r = traced.ray(j, i);
+        TraversalCounters c;
+        TraversalCounters* cp = opt.counters ? &c : nullptr;
+        if constexpr (kOcclusion) q.flag[i] = bvh.occluded(r, cp) ? 1 : 0;
+        else q.flag[i] = bvh.intersect(r, q.hits[i], cp) ? 1 : 0;
+        if (opt.counters) {
+            book_work(st, bounce, c);  // the ray itself was booked when queued
+            if (per_path) b.visits[q.owner[i]] += uint32_t(c.node_visits);
+        }
+    }
+}
+
+// The queue's rays as SIMD packets of consecutive traced rays.
+template <bool kOcclusion>
+void trace_packets(const Bvh& bvh, const WavefrontOptions& opt, const TracedOrder& traced, Buffers& b, int bounce,
+                   RenderStats& st, bool per_path) {
+    RayQueue& q = b.queue;
+    TraceScratch& ts = b.trace;
+    const size_t n = q.size();
+    const size_t k = size_t(std::min(opt.packet_size, kMaxPacketRays));
+    if (!ts.packet) {
+        ts.packet = std::make_unique<RayPacket>();
+        ts.hit_packet = std::make_unique<HitPacket>();
+    }
+    RayPacket& pk = *ts.packet;
+    HitPacket& hp = *ts.hit_packet;
+    ts.lane_visits.assign(k, 0);
+    uint32_t lane_index[kMaxPacketRays];
+    for (size_t j0 = 0; j0 < n; j0 += k) {
+        const size_t j1 = std::min(j0 + k, n);
+        pk.clear();
+        for (size_t j = j0; j < j1; ++j) {
+            const uint32_t i = traced.queue_index(j);
+            lane_index[pk.push(traced.ray(j, i))] = i;
+        }
+        PacketCounters pc;
+        if (per_path) {
+            std::fill(ts.lane_visits.begin(), ts.lane_visits.end(), 0u);
+            pc.ray_node_visits = ts.lane_visits.data();
+        }
+        PacketCounters* pcp = opt.counters ? &pc : nullptr;
+        if constexpr (kOcclusion) {
+            OcclusionMask mask;
+            bvh.occluded(pk, mask, pcp);
+            for (int l = 0; l < pk.size; ++l) q.flag[lane_index[l]] = mask.test(l) ? 1 : 0;
+        } else {
+            hp.reset(pk.size);
+            bvh.intersect(pk, hp, pcp);
+            for (int l = 0; l < pk.size; ++l) {
+                const Hit h = hp.hit(l);
+                q.hits[lane_index[l]] = h;
+                q.flag[lane_index[l]] = h.valid() ? 1 : 0;
+            }
+        }
+        if (opt.counters) {
+            book_work(st, bounce, pc);
+            if (per_path)
+                for (int l = 0; l < pk.size; ++l) b.visits[q.owner[lane_index[l]]] += ts.lane_visits[size_t(l)];
+        }
+    }
+}
+
+// Reorders and traces the queue: closest hits (extension rays) or occlusion
+// (shadow and AO rays). Results land at the rays' queue indices.
+template <bool kOcclusion>
+void trace_queue(const Bvh& bvh, const WavefrontOptions& opt, bool reorder, Buffers& b, int bounce, RenderStats& st,
+                 WavefrontStats& ws) {
+    const size_t n = b.queue.size();
+    b.queue.flag.assign(n, 0);
+    if constexpr (!kOcclusion) b.queue.hits.assign(n, Hit{});
     ws.rays += n;
-    ++ws.batches;
+    ++ws.queues;
     if (n == 0) return;
 
-    // Reorder: the traced order as a permutation of queue indices.
     const bool ordered = reorder && opt.reorder != ReorderMode::None;
-    if (ordered) {
-        ReorderTimings t;
-        compute_ray_order(b.rays.data(), b.tags.data(), n, opt.reorder, b.ws, b.order, &t, opt.sort);
-        ws.reorder += t;
-        st.sort_seconds += t.total();
-    }
-    const double start = thread_seconds();
-    const Ray* src = b.rays.data();
-    if (ordered && opt.gather) {
-        b.traced_rays.resize(n);
-        for (size_t j = 0; j < n; ++j) b.traced_rays[j] = b.rays[b.order[j]];
-        src = b.traced_rays.data();
-    }
-    // Queue index of the j-th traced ray, and the ray itself.
-    auto queue_index = [&](size_t j) -> uint32_t { return ordered ? b.order[j] : uint32_t(j); };
-    auto traced_ray = [&](size_t j, uint32_t i) -> const Ray& { return (ordered && !opt.gather) ? src[i] : src[j]; };
+    if (ordered) reorder_queue(opt, b, st, ws);
+    const double start = thread_cpu_seconds();
+    const TracedOrder traced = traced_order(opt, ordered, b);
     const bool per_path = opt.counters && opt.node_visits && !b.visits.empty();
-
-    if (opt.packet_size <= 0) {
-        for (size_t j = 0; j < n; ++j) {
-            const uint32_t i = queue_index(j);
-            const Ray& r = traced_ray(j, i);
-            TraversalCounters c;
-            TraversalCounters* cp = opt.counters ? &c : nullptr;
-            if constexpr (kOcclusion) b.flag[i] = bvh.occluded(r, cp) ? 1 : 0;
-            else b.flag[i] = bvh.intersect(r, b.hits[i], cp) ? 1 : 0;
-            if (opt.counters) {
-                st.traversal.rays += c.rays;  // its type and bounce were counted when queued
-                book_work(st, bounce, c);
-                if (per_path) b.visits[b.owner[i]] += uint32_t(c.node_visits);
-            }
-        }
-    } else {
-        const size_t k = size_t(std::min(opt.packet_size, kMaxPacketRays));
-        if (!b.packet) {
-            b.packet = std::make_unique<RayPacket>();
-            b.hit_packet = std::make_unique<HitPacket>();
-        }
-        RayPacket& pk = *b.packet;
-        HitPacket& hp = *b.hit_packet;
-        b.lane_visits.assign(k, 0);
-        uint32_t lane_index[kMaxPacketRays];
-        for (size_t j0 = 0; j0 < n; j0 += k) {
-            const size_t j1 = std::min(j0 + k, n);
-            pk.clear();
-            for (size_t j = j0; j < j1; ++j) {
-                const uint32_t i = queue_index(j);
-                lane_index[pk.push(traced_ray(j, i))] = i;
-            }
-            PacketCounters pc;
-            if (per_path) {
-                std::fill(b.lane_visits.begin(), b.lane_visits.end(), 0u);
-                pc.ray_node_visits = b.lane_visits.data();
-            }
-            PacketCounters* pcp = opt.counters ? &pc : nullptr;
-            if constexpr (kOcclusion) {
-                OcclusionMask mask;
-                bvh.occluded(pk, mask, pcp);
-                for (int l = 0; l < pk.size; ++l) b.flag[lane_index[l]] = mask.test(l) ? 1 : 0;
-            } else {
-                hp.reset(pk.size);
-                bvh.intersect(pk, hp, pcp);
-                for (int l = 0; l < pk.size; ++l) {
-                    const Hit h = hp.hit(l);
-                    b.hits[lane_index[l]] = h;
-                    b.flag[lane_index[l]] = h.valid() ? 1 : 0;
-                }
-            }
-            if (opt.counters) {
-                st.traversal.rays += pc.rays;
-                book_work(st, bounce, pc);
-                if (per_path)
-                    for (int l = 0; l < pk.size; ++l) b.visits[b.owner[lane_index[l]]] += b.lane_visits[size_t(l)];
-            }
-        }
-    }
-    const double seconds = thread_seconds() - start;
+    if (opt.packet_size <= 0) trace_singly<kOcclusion>(bvh, opt, traced, b, bounce, st, per_path);
+    else trace_packets<kOcclusion>(bvh, opt, traced, b, bounce, st, per_path);
+    const double seconds = thread_cpu_seconds() - start;
     ws.trace_seconds += seconds;
     st.trace_seconds += seconds;
+}
+
+// Generate: the camera paths of the wave's pixels (b.px, b.py).
+template <bool kDepthOfField>
+void start_wave(const PathContext& ctx, const WavefrontOptions& opt, const ImageSampler& sampler, uint32_t sample,
+                Buffers& b) {
+    const size_t paths = b.px.size();
+    b.samplers.clear();
+    b.states.resize(paths);
+    for (size_t p = 0; p < paths; ++p) {
+        b.samplers.emplace_back(sampler, uint32_t(b.px[p]), uint32_t(b.py[p]), sample);
+        start_path<kDepthOfField>(ctx, b.samplers[p], b.px[p], b.py[p], b.states[p]);
+    }
+    if (opt.node_visits) b.visits.assign(paths, 0);
+    else b.visits.clear();
+}
+
+// Queues the live paths' extension rays; returns how many.
+size_t queue_extension_rays(Buffers& b, int bounce, RenderStats& st) {
+    b.queue.clear();
+    for (size_t p = 0; p < b.states.size(); ++p) {
+        const PathState& s = b.states[p];
+        if (!s.alive) continue;
+        b.queue.push(s.ray, RayTag{uint16_t(b.px[p]), uint16_t(b.py[p]), 0u}, uint32_t(p));
+        book_rays(st, bounce, s.type, 1);
+    }
+    return b.queue.size();
+}
+
+// Shades the traced extension queue, path by path. Moving triangles
+// (motion blur) are merged in one ray at a time.
+template <bool kGlass, bool kLights>
+void shade_queue(const PathContext& ctx, Buffers& b, int bounce, RenderStats& st) {
+    RayQueue& q = b.queue;
+    TraversalCounters motion;
+    for (size_t i = 0; i < q.size(); ++i) {
+        const uint32_t p = q.owner[i];
+        const bool found = merge_motion_hit(ctx, b.states[p], q.flag[i] != 0, q.hits[i], &motion);
+        shade_hit<kGlass, kLights>(ctx, b.samplers[p], b.states[p], found, q.hits[i]);
+    }
+    if (ctx.motion) book_work(st, bounce, motion);
+}
+
+// Queues the occlusion rays of the paths just shaded (path-major, tagged
+// with their index within the pixel's sample); returns how many.
+size_t queue_occlusion_rays(const PathContext& ctx, Buffers& b, int bounce, RenderStats& st) {
+    // The paths shaded, kept while the queue buffers are reused.
+    b.shaded.swap(b.queue.owner);
+    b.queue.clear();
+    for (const uint32_t p : b.shaded) {
+        const PathState& s = b.states[p];
+        const int n = occlusion_ray_count(s);
+        for (int k = 0; k < n; ++k) {
+            const RayTag tag{uint16_t(b.px[p]), uint16_t(b.py[p]), s.has_shadow ? 0u : uint32_t(k + 1)};
+            b.queue.push(occlusion_ray(ctx, b.samplers[p], s, k), tag, p);
+        }
+        book_rays(st, bounce, RayType::Shadow, uint64_t(n));
+    }
+    return b.queue.size();
+}
+
+// Motion blur: moving triangles may block the traced occlusion queue's
+// unoccluded rays too.
+void occlude_moving(const PathContext& ctx, Buffers& b, int bounce, RenderStats& st) {
+    if (!ctx.motion) return;
+    RayQueue& q = b.queue;
+    TraversalCounters motion;
+    for (size_t i = 0; i < q.size(); ++i)
+        if (!q.flag[i] && motion_occluded(ctx, b.states[q.owner[i]], q.rays[i], &motion)) q.flag[i] = 1;
+    book_work(st, bounce, motion);
 }
 
 }  // namespace
@@ -184,13 +296,8 @@ WavefrontRenderer::WavefrontRenderer(const PathContext& ctx, const WavefrontOpti
                                      bool depth_of_field, bool lights)
     : ctx_(ctx), opt_(opt), buf_(std::make_unique<Buffers>()) {
     opt_.wave_size = std::max(opt_.wave_size, 1);
-    static constexpr WaveFn table[2][2][2] = {
-        {{&run_wave<false, false, false>, &run_wave<false, false, true>},
-         {&run_wave<false, true, false>, &run_wave<false, true, true>}},
-        {{&run_wave<true, false, false>, &run_wave<true, false, true>},
-         {&run_wave<true, true, false>, &run_wave<true, true, true>}},
-    };
-    run_wave_ = table[glass ? 1 : 0][depth_of_field ? 1 : 0][lights ? 1 : 0];
+    run_wave_ = select_kernel_variant(KernelFeatures{glass, depth_of_field, lights},
+                                      [](auto g, auto d, auto l) -> WaveFn { return &run_wave<g(), d(), l()>; });
 }
 
 WavefrontRenderer::~WavefrontRenderer() = default;
@@ -207,93 +314,29 @@ void WavefrontRenderer::run_wave(WavefrontRenderer& self, const ImageSampler& sa
     const PathContext& ctx = self.ctx_;
     const WavefrontOptions& opt = self.opt_;
     const Bvh& bvh = *ctx.bvh;
-    const size_t paths = b.px.size();
-
-    // Generate.
-    b.samplers.clear();
-    b.states.resize(paths);
-    for (size_t p = 0; p < paths; ++p) {
-        b.samplers.emplace_back(sampler, uint32_t(b.px[p]), uint32_t(b.py[p]), sample);
-        start_path<ImageSampler, kDepthOfField>(ctx, b.samplers[p], b.px[p], b.py[p], b.states[p]);
-    }
-    if (opt.node_visits) b.visits.assign(paths, 0);
-    else b.visits.clear();
-
+    start_wave<kDepthOfField>(ctx, opt, sampler, sample, b);
     // Every live path is at the same bounce: all start together and each
     // shade_hit that continues a path advances it by exactly one.
     for (int bounce = 0;; ++bounce) {
         if (cancelled && cancelled->load(std::memory_order_relaxed)) return;
-
-        // Extend: the live paths' extension rays.
-        b.clear_batch();
-        for (size_t p = 0; p < paths; ++p) {
-            const PathState& s = b.states[p];
-            if (!s.alive) continue;
-            b.rays.push_back(s.ray);
-            b.tags.push_back(RayTag{uint16_t(b.px[p]), uint16_t(b.py[p]), 0u});
-            b.owner.push_back(uint32_t(p));
-            ++st.rays[size_t(s.type)];
-        }
-        const size_t n = b.rays.size();
-        if (n == 0) break;
-        trace_batch<false>(bvh, opt, bounce > 0 || opt.reorder_camera_rays, b, bounce, st, self.stats_);
-
-        // Shade, then queue the occlusion rays, path by path. Moving
-        // triangles (motion blur) are merged in one ray at a time.
-        TraversalCounters motion;
-        for (size_t i = 0; i < n; ++i) {
-            const uint32_t p = b.owner[i];
-            const bool found = merge_motion_hit(ctx, b.states[p], b.flag[i] != 0, b.hits[i], &motion);
-            shade_hit<ImageSampler, kGlass, kLights>(ctx, b.samplers[p], b.states[p], found, b.hits[i]);
-        }
-        // The paths shaded above, kept while the batch buffers are reused.
-        b.shaded.swap(b.owner);
-        b.clear_batch();
-        for (const uint32_t p : b.shaded) {
-            const PathState& s = b.states[p];
-            const uint16_t x = uint16_t(b.px[p]), y = uint16_t(b.py[p]);
-            if (s.has_shadow) {
-                b.rays.push_back(s.shadow);
-                b.tags.push_back(RayTag{x, y, 0u});
-                b.owner.push_back(p);
-                b.kind.push_back(kShadowRay);
-                ++st.rays[size_t(RayType::Shadow)];
-            }
-            for (int k = 0; k < s.ao_rays; ++k) {
-                b.rays.push_back(ao_ray(ctx, b.samplers[p], s, k));
-                b.tags.push_back(RayTag{x, y, uint32_t(k + 1)});
-                b.owner.push_back(p);
-                b.kind.push_back(kAoRay);
-            }
-            st.rays[size_t(RayType::Shadow)] += uint64_t(std::max(s.ao_rays, 0));
-        }
-        const size_t m = b.rays.size();
+        // Extend: trace the live paths' extension rays, shade their hits.
+        if (queue_extension_rays(b, bounce, st) == 0) break;
+        trace_queue<false>(bvh, opt, bounce > 0 || opt.reorder_camera_rays, b, bounce, st, self.stats_);
+        shade_queue<kGlass, kLights>(ctx, b, bounce, st);
+        // Shadow: trace the shadow and AO rays the shading queued, resolve them.
+        const size_t m = queue_occlusion_rays(ctx, b, bounce, st);
         if (m == 0) continue;
-        trace_batch<true>(bvh, opt, true, b, bounce, st, self.stats_);
-        if (ctx.motion)
-            for (size_t i = 0; i < m; ++i)
-                if (!b.flag[i] && motion_occluded(ctx, b.states[b.owner[i]], b.rays[i], &motion)) b.flag[i] = 1;
-        if (ctx.motion) book_work(st, bounce, motion);
-
-        // Resolve in queue order: a path's AO rays are consecutive.
-        for (size_t i = 0; i < m;) {
-            const uint32_t p = b.owner[i];
-            if (b.kind[i] == kShadowRay) {
-                resolve_shadow(b.states[p], b.flag[i] != 0);
-                ++i;
-                continue;
-            }
-            int unoccluded = 0;
-            for (; i < m && b.owner[i] == p && b.kind[i] == kAoRay; ++i) unoccluded += b.flag[i] ? 0 : 1;
-            resolve_ao(b.states[p], unoccluded);
-        }
+        trace_queue<true>(bvh, opt, true, b, bounce, st, self.stats_);
+        occlude_moving(ctx, b, bounce, st);
+        resolve_occlusion_queue(b.queue.flag.data(), m,
+                                [&](size_t i) -> PathState& { return b.states[b.queue.owner[i]]; });
     }
 }
 
 bool WavefrontRenderer::render_pass(const ImageSampler& sampler, uint32_t sample, int x0, int y0, int x1, int y1,
                                     const WaveSkip& skip, const WaveOutput& output, RenderStats& st,
                                     const std::atomic<bool>* cancelled) {
-    const double start = thread_seconds();
+    const double start = thread_cpu_seconds();
     Buffers& b = *buf_;
     const size_t wave = size_t(opt_.wave_size);
     bool ok = true;
@@ -322,7 +365,7 @@ bool WavefrontRenderer::render_pass(const ImageSampler& sampler, uint32_t sample
     if (ok) flush();
     b.px.clear();
     b.py.clear();
-    stats_.total_seconds += thread_seconds() - start;
+    stats_.total_seconds += thread_cpu_seconds() - start;
     return ok;
 }
 

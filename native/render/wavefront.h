@@ -3,16 +3,16 @@
 // paths advances stage by stage over flat per-path arrays:
 //
 //   generate  camera rays of the wave's pixels (start_path)
-//   extend    every live path's extension ray, as one batch: reorder, trace
-//             (Bvh::intersect), shade (shade_hit), which may queue a shadow
-//             ray or ambient occlusion rays and set up the next extension ray
-//   shadow    every queued shadow and AO ray of the wave, as one batch:
-//             reorder, trace (Bvh::occluded), resolve (resolve_shadow,
-//             resolve_ao)
+//   extend    every live path's extension ray, as one ray queue: reorder,
+//             trace (Bvh::intersect), shade (shade_hit), which may queue a
+//             shadow ray or ambient occlusion rays and set up the next
+//             extension ray
+//   shadow    every queued shadow and AO ray of the wave, as one ray queue:
+//             reorder, trace (Bvh::occluded), resolve (resolve_occlusion)
 //   repeat extend + shadow until no path is alive; then the wave's samples
 //   are handed out and the next wave starts in the same buffers.
 //
-// Reordering (ray_reorder.h) permutes the order in which a batch is traced,
+// Reordering (ray_reorder.h) permutes the order in which a queue is traced,
 // never which rays exist or how their results are used, and each path runs
 // the state machine (path_state.h) in the same sequence as the depth-first
 // driver: so every reorder mode, gather or not, packets or not, gives the
@@ -20,7 +20,7 @@
 //
 // Memory: every buffer is sized by the wave, never by the image: at most
 // wave_size paths, at most wave_size extension rays and wave_size * max(1,
-// ao_samples) occlusion rays per batch. Buffers are kept between waves and
+// ao_samples) occlusion rays per queue. Buffers are kept between waves and
 // passes (one WavefrontRenderer per thread).
 #pragma once
 
@@ -40,16 +40,16 @@ struct WavefrontOptions {
     ReorderMode reorder = ReorderMode::None;
     int wave_size = 1 << 16;  // paths in flight at most (>= 1)
     ReorderOptions sort;      // radix or comparison sort, digit width
-    // Whether batches of camera rays are reordered too. Off by default, as in
+    // Whether queues of camera rays are reordered too. Off by default, as in
     // the paper: camera rays leave the pixels in generation (row) order,
     // which is already coherent; sorting them would only cost.
     bool reorder_camera_rays = false;
-    // After reordering, copy the batch's rays into traced order and trace
+    // After reordering, copy the queue's rays into traced order and trace
     // them from contiguous memory (true), or trace through the permutation
     // (false). Same results; a cost choice (measured in bench/reorder_bench).
     bool gather = true;
     // 0: trace single rays. 1..256: trace consecutive rays of the (ordered)
-    // batch as SIMD packets of this many rays (ray_packet.h); same results.
+    // queue as SIMD packets of this many rays (ray_packet.h); same results.
     int packet_size = 0;
     // Traversal counters into RenderStats (rays per bounce, node visits...).
     bool counters = true;
@@ -67,7 +67,7 @@ struct WavefrontStats {
     double trace_seconds = 0.0;  // thread CPU seconds in Bvh::intersect / occluded
     double total_seconds = 0.0;  // thread CPU seconds in render_pass, all stages
     uint64_t waves = 0;
-    uint64_t batches = 0;        // extension and occlusion batches traced
+    uint64_t queues = 0;         // extension and occlusion ray queues traced
     uint64_t rays = 0;           // rays traced
     size_t max_paths = 0;        // largest wave (<= wave_size)
     size_t peak_bytes = 0;       // largest footprint of all buffers after a wave

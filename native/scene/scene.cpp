@@ -52,6 +52,110 @@ float determinant3(const Transform& t) {
            m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0]);
 }
 
+// A mesh's vertices in world space, transformed once per vertex (with
+// motion, also at shutter close). A vertex that is non-finite in either
+// space, or at either end of the shutter, is unusable.
+struct WorldVertices {
+    std::vector<Vec3f> open, close;
+    std::vector<uint8_t> finite;
+};
+
+WorldVertices world_vertices(const MeshInput& mesh, const Transform& xf, const Transform& xf_close) {
+    WorldVertices w;
+    w.open.resize(mesh.vertex_count);
+    w.finite.resize(mesh.vertex_count);
+    if (mesh.moves) w.close.resize(mesh.vertex_count);
+    for (size_t i = 0; i < mesh.vertex_count; ++i) {
+        const Vec3f p{mesh.positions[3 * i], mesh.positions[3 * i + 1], mesh.positions[3 * i + 2]};
+        w.open[i] = xf.point(p);
+        w.finite[i] = is_finite(p) && is_finite(w.open[i]);
+        if (mesh.moves) {
+            const float* src = mesh.positions_close ? mesh.positions_close : mesh.positions;
+            const Vec3f pc{src[3 * i], src[3 * i + 1], src[3 * i + 2]};
+            w.close[i] = xf_close.point(pc);
+            w.finite[i] = w.finite[i] && is_finite(pc) && is_finite(w.close[i]);
+        }
+    }
+    return w;
+}
+
+// Triangles of one mesh dropped, by reason.
+struct MeshDrops {
+    size_t nonfinite = 0, out_of_range = 0, degenerate = 0, bad_material = 0;
+    size_t total() const { return nonfinite + out_of_range + degenerate + bad_material; }
+};
+
+// The scene material of triangle t; an id without a valid slot gets the
+// default material (0) and is counted.
+uint32_t triangle_material(const MeshInput& mesh, size_t t, size_t scene_materials, MeshDrops& drops) {
+    if (!mesh.material_slots.empty()) {
+        const uint32_t slot = mesh.material_ids ? mesh.material_ids[t] : 0u;
+        if (slot < mesh.material_slots.size() && mesh.material_slots[slot] < scene_materials)
+            return mesh.material_slots[slot];
+        ++drops.bad_material;
+    } else if (mesh.material_ids && mesh.material_ids[t] != 0) {
+        ++drops.bad_material;  // ids given but no slots to resolve them
+    }
+    return 0;
+}
+
+// World-space shading normals of triangle t's corners (in `corner` order);
+// returns whether the mesh has usable normals. Without them every corner
+// gets the geometric normal, and so does each broken normal.
+bool world_normals(const MeshInput& mesh, size_t t, const int corner[3], const NormalTransform& normal_xf,
+                   const Vec3f& ng_unit, Vec3f n[3]) {
+    n[0] = n[1] = n[2] = ng_unit;
+    if (!mesh.normals || !normal_xf.valid) return false;
+    for (int k = 0; k < 3; ++k) {
+        const float* src = mesh.normals + 9 * t + 3 * corner[k];
+        const Vec3f on{src[0], src[1], src[2]};
+        const Vec3f wn = is_finite(on) ? normal_xf.apply(on) : Vec3f(NAN);
+        n[k] = is_finite(wn) ? wn : ng_unit;
+    }
+    return true;
+}
+
+// Triangle t's corners at shutter close: where it moves, its close pose and
+// close-pose normals (a broken one keeps the open pose's); else its open pose.
+void append_motion_corners(Scene& scene, const MeshInput& mesh, const WorldVertices& world, size_t t,
+                           const uint32_t idx[3], const int corner[3], bool real_normals,
+                           const NormalTransform& normal_xf_close, const Vec3f n[3]) {
+    for (int k = 0; k < 3; ++k) {
+        if (!mesh.moves) {
+            scene.motion_vertices.push_back(scene.vertices[scene.vertices.size() - 3 + k]);
+            scene.motion_normals.push_back(n[k]);
+            continue;
+        }
+        scene.motion_vertices.push_back(world.close[idx[corner[k]]]);
+        Vec3f nc = n[k];
+        if (real_normals && normal_xf_close.valid) {
+            const float* src = mesh.normals + 9 * t + 3 * corner[k];
+            const Vec3f wn = normal_xf_close.apply(Vec3f{src[0], src[1], src[2]});
+            if (is_finite(wn)) nc = wn;
+        }
+        scene.motion_normals.push_back(nc);
+    }
+}
+
+// Books a mesh's drops into scene.dropped and, if any triangle was added,
+// the mesh as an object of the scene; returns the triangles added.
+size_t record_mesh(Scene& scene, const std::string& name, size_t triangles, size_t added, const MeshDrops& drops) {
+    DropReport& d = scene.dropped;
+    d.nonfinite_vertices += drops.nonfinite;
+    d.out_of_range_indices += drops.out_of_range;
+    d.degenerate_triangles += drops.degenerate;
+    d.bad_material_ids += drops.bad_material;
+    if (drops.total() > 0) d.meshes_with_drops.push_back(name);
+    if (added == 0) {
+        d.skipped_meshes.push_back(name + " (all " + std::to_string(triangles) + " triangles invalid)");
+        return 0;
+    }
+    const uint32_t object = uint32_t(scene.object_names.size());
+    scene.object_names.push_back(name);
+    scene.object_of.insert(scene.object_of.end(), added, object);
+    return added;
+}
+
 }  // namespace
 
 Scene::Scene() {
@@ -92,24 +196,9 @@ size_t Scene::add_mesh(const MeshInput& mesh) {
     const NormalTransform normal_xf_close(xf_close);
     // A mirroring transform reverses the winding; swap two corners so the
     // geometric normal keeps pointing to the side the shading normals face.
-    const bool mirror = determinant3(xf) < 0.0f;
-
-    // Transform each vertex once; a vertex that is non-finite in either space is unusable.
-    // With motion, a vertex must be finite at both ends of the shutter.
-    std::vector<Vec3f> world(mesh.vertex_count), world_close;
-    std::vector<uint8_t> finite(mesh.vertex_count);
-    if (mesh.moves) world_close.resize(mesh.vertex_count);
-    for (size_t i = 0; i < mesh.vertex_count; ++i) {
-        const Vec3f p{mesh.positions[3 * i], mesh.positions[3 * i + 1], mesh.positions[3 * i + 2]};
-        world[i] = xf.point(p);
-        finite[i] = is_finite(p) && is_finite(world[i]);
-        if (mesh.moves) {
-            const float* src = mesh.positions_close ? mesh.positions_close : mesh.positions;
-            const Vec3f pc{src[3 * i], src[3 * i + 1], src[3 * i + 2]};
-            world_close[i] = xf_close.point(pc);
-            finite[i] = finite[i] && is_finite(pc) && is_finite(world_close[i]);
-        }
-    }
+    int corner[3] = {0, 1, 2};
+    if (determinant3(xf) < 0.0f) std::swap(corner[1], corner[2]);
+    const WorldVertices world = world_vertices(mesh, xf, xf_close);
     // The first moving mesh turns motion on: earlier triangles stand still.
     if (mesh.moves && motion_vertices.empty()) {
         motion_vertices = vertices;
@@ -117,97 +206,42 @@ size_t Scene::add_mesh(const MeshInput& mesh) {
     }
     const bool track_motion = mesh.moves || !motion_vertices.empty();
 
-    size_t nonfinite = 0, out_of_range = 0, degenerate = 0, bad_material = 0, added = 0;
+    MeshDrops drops;
+    size_t added = 0;
     for (size_t t = 0; t < mesh.triangle_count; ++t) {
-        uint32_t idx[3] = {mesh.indices[3 * t], mesh.indices[3 * t + 1], mesh.indices[3 * t + 2]};
+        const uint32_t idx[3] = {mesh.indices[3 * t], mesh.indices[3 * t + 1], mesh.indices[3 * t + 2]};
         if (idx[0] >= mesh.vertex_count || idx[1] >= mesh.vertex_count || idx[2] >= mesh.vertex_count) {
-            ++out_of_range;
+            ++drops.out_of_range;
             continue;
         }
-        if (!finite[idx[0]] || !finite[idx[1]] || !finite[idx[2]]) {
-            ++nonfinite;
+        if (!world.finite[idx[0]] || !world.finite[idx[1]] || !world.finite[idx[2]]) {
+            ++drops.nonfinite;
             continue;
         }
-        int corner[3] = {0, 1, 2};
-        if (mirror) std::swap(corner[1], corner[2]);
-        const Vec3f p0 = world[idx[corner[0]]], p1 = world[idx[corner[1]]], p2 = world[idx[corner[2]]];
+        const Vec3f p0 = world.open[idx[corner[0]]], p1 = world.open[idx[corner[1]]], p2 = world.open[idx[corner[2]]];
         // Zero area in world space (also catches a singular transform). A cross
         // product that overflows is equally useless to the intersector.
         const Vec3f ng = cross(p1 - p0, p2 - p0);
         const float area2 = length(ng);
         if (!(area2 > 0.0f) || !std::isfinite(area2)) {
-            ++degenerate;
+            ++drops.degenerate;
             continue;
         }
-        const Vec3f ng_unit = ng / area2;
-
-        uint32_t material = 0;
-        if (!mesh.material_slots.empty()) {
-            const uint32_t slot = mesh.material_ids ? mesh.material_ids[t] : 0u;
-            if (slot < mesh.material_slots.size() && mesh.material_slots[slot] < materials.size()) {
-                material = mesh.material_slots[slot];
-            } else {
-                ++bad_material;
-            }
-        } else if (mesh.material_ids && mesh.material_ids[t] != 0) {
-            ++bad_material;  // ids given but no slots to resolve them
-        }
-
+        const uint32_t material = triangle_material(mesh, t, materials.size(), drops);
         vertices.push_back(p0);
         vertices.push_back(p1);
         vertices.push_back(p2);
-        bool real_normals = false;
-        Vec3f n[3] = {ng_unit, ng_unit, ng_unit};
-        if (mesh.normals && normal_xf.valid) {
-            real_normals = true;
-            for (int k = 0; k < 3; ++k) {
-                const float* src = mesh.normals + 9 * t + 3 * corner[k];
-                const Vec3f on{src[0], src[1], src[2]};
-                const Vec3f wn = is_finite(on) ? normal_xf.apply(on) : Vec3f(NAN);
-                // A broken shading normal falls back to the geometric one.
-                n[k] = is_finite(wn) ? wn : ng_unit;
-            }
-        }
+        Vec3f n[3];
+        const bool real_normals = world_normals(mesh, t, corner, normal_xf, ng / area2, n);
         normals.push_back(n[0]);
         normals.push_back(n[1]);
         normals.push_back(n[2]);
-        if (track_motion) {
-            for (int k = 0; k < 3; ++k) {
-                if (!mesh.moves) {
-                    motion_vertices.push_back(vertices[vertices.size() - 3 + k]);
-                    motion_normals.push_back(n[k]);
-                    continue;
-                }
-                motion_vertices.push_back(world_close[idx[corner[k]]]);
-                Vec3f nc = n[k];
-                if (real_normals && normal_xf_close.valid) {
-                    const float* src = mesh.normals + 9 * t + 3 * corner[k];
-                    const Vec3f wn = normal_xf_close.apply(Vec3f{src[0], src[1], src[2]});
-                    if (is_finite(wn)) nc = wn;
-                }
-                motion_normals.push_back(nc);
-            }
-        }
+        if (track_motion) append_motion_corners(*this, mesh, world, t, idx, corner, real_normals, normal_xf_close, n);
         has_normals.push_back(real_normals ? 1 : 0);
         material_of.push_back(material);
         ++added;
     }
-
-    dropped.nonfinite_vertices += nonfinite;
-    dropped.out_of_range_indices += out_of_range;
-    dropped.degenerate_triangles += degenerate;
-    dropped.bad_material_ids += bad_material;
-    if (nonfinite + out_of_range + degenerate + bad_material > 0) dropped.meshes_with_drops.push_back(name);
-
-    if (added == 0) {
-        dropped.skipped_meshes.push_back(name + " (all " + std::to_string(mesh.triangle_count) +
-                                         " triangles invalid)");
-        return 0;
-    }
-    const uint32_t object = uint32_t(object_names.size());
-    object_names.push_back(name);
-    object_of.insert(object_of.end(), added, object);
-    return added;
+    return record_mesh(*this, name, mesh.triangle_count, added, drops);
 }
 
 void Scene::finalize() {
