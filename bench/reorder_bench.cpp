@@ -271,7 +271,7 @@ void sort_experiment(const std::string& name, const PathContext& ctx, const Samp
         full.reserve(size_t(w) * size_t(h) * size_t(S));
         for (int y = 0; y < h; ++y)
             for (int x = 0; x < w; ++x) {
-                const PathSampler<ImageSampler> ps(sampler, uint32_t(x), uint32_t(y), 0);
+                const PathSampler ps(sampler, uint32_t(x), uint32_t(y), 0);
                 PathState s;
                 start_path<false>(ctx, ps, x, y, s);
                 Hit hit;

@@ -26,6 +26,7 @@
 #include <cmath>
 #include <vector>
 
+#include "../core/inline.h"
 #include "../core/simd.h"
 #include "aligned_allocator.h"
 #include "bvh.h"
@@ -98,7 +99,7 @@ struct StreamSlice {
 };
 
 // Per-ray constants of the slice; valid rays form the root's queue.
-__attribute__((always_inline)) inline void start_slice(const StreamSlice& s, float magnitude, Workspace& ws,
+COHERENT_ALWAYS_INLINE void start_slice(const StreamSlice& s, float magnitude, Workspace& ws,
                                                        StreamStats& st) {
     ws.reserve(s.n);
     ws.entries.clear();
@@ -121,7 +122,7 @@ __attribute__((always_inline)) inline void start_slice(const StreamSlice& s, flo
 
 // Early out: a closer hit (or, for any hit, an occluder) was found since
 // this entry was queued.
-__attribute__((always_inline)) inline bool culled(const QueueEntry& q, const StreamRay& sr, StreamStats& st) {
+COHERENT_ALWAYS_INLINE bool culled(const QueueEntry& q, const StreamRay& sr, StreamStats& st) {
     if (q.t <= sr.cull) return false;
     ++st.culled;
     return true;
@@ -129,7 +130,7 @@ __attribute__((always_inline)) inline bool culled(const QueueEntry& q, const Str
 
 // Leaf: every queued ray against the leaf's triangles; pops the queue.
 template <bool kAnyHit>
-__attribute__((always_inline)) inline void visit_leaf(const Job& job, int level, const TrianglePack4* packs,
+COHERENT_ALWAYS_INLINE void visit_leaf(const Job& job, int level, const TrianglePack4* packs,
                                                       uint8_t* occluded, Workspace& ws, StreamStats& st) {
     for (size_t e = job.begin; e < job.end; ++e) {
         const QueueEntry q = ws.entries[e];
@@ -158,7 +159,7 @@ struct ChildQueues {
 // Tests every ray queued at `job` against the node's children; the rays that
 // enter any child go to scratch (ray, child mask, entry distances), counted
 // in `children`. Returns how many rays were kept.
-__attribute__((always_inline)) inline size_t test_children(const Job& job, int level, const WideNode8& node,
+COHERENT_ALWAYS_INLINE size_t test_children(const Job& job, int level, const WideNode8& node,
                                                            Workspace& ws, StreamStats& st, ChildQueues& children) {
     const int slots = NodeTraits<WideNode8>::used_slots(node);
     size_t kept = 0;
@@ -194,7 +195,7 @@ __attribute__((always_inline)) inline size_t test_children(const Job& job, int l
 // farthest first (by mean entry distance) so that the nearest is processed
 // next, then writes each of the `kept` scratch rays into the queue of every
 // child it entered.
-__attribute__((always_inline)) inline void push_children(const Job& job, const WideNode8& node,
+COHERENT_ALWAYS_INLINE void push_children(const Job& job, const WideNode8& node,
                                                          const ChildQueues& children, size_t kept, Workspace& ws) {
     ws.entries.resize(job.begin);
     auto mean_entry = [&](int c) { return children.entry_sum[c] / children.rays[c]; };

@@ -14,6 +14,7 @@
 #include <cmath>
 #include <cstddef>
 
+#include "../core/inline.h"
 #include "bvh.h"
 #include "triangle.h"
 #include "wide_kernel.h"
@@ -37,7 +38,7 @@ struct Entry {
 
 // Starts loading a stack entry's node or leaf packs.
 template <class Node>
-__attribute__((always_inline)) inline void prefetch_entry(const Entry& e, const Node* nodes,
+COHERENT_ALWAYS_INLINE void prefetch_entry(const Entry& e, const Node* nodes,
                                                           const TrianglePack4* packs) {
     const char* line = e.count == 0 ? reinterpret_cast<const char*>(&nodes[e.ref])
                                     : reinterpret_cast<const char*>(&packs[e.ref]);
@@ -48,7 +49,7 @@ __attribute__((always_inline)) inline void prefetch_entry(const Entry& e, const 
 // `entry`): pushes them farthest first onto stack[sp..] and pops the
 // nearest, which it returns.
 template <class Node>
-__attribute__((always_inline)) inline Entry push_near_first(const Node& n, int mask, const float* entry,
+COHERENT_ALWAYS_INLINE Entry push_near_first(const Node& n, int mask, const float* entry,
                                                             Entry* stack, int& sp, const Node* nodes,
                                                             const TrianglePack4* packs) {
     const int base = sp;
@@ -77,7 +78,7 @@ __attribute__((always_inline)) inline Entry push_near_first(const Node& n, int m
 // tests; then tests the leaf children with `leaf` (true: a hit, which ends
 // the query). Returns whether a leaf was hit.
 template <class Node, class Leaf>
-__attribute__((always_inline)) inline bool any_hit_children(const Node& n, int mask, float tmin, Entry* stack,
+COHERENT_ALWAYS_INLINE bool any_hit_children(const Node& n, int mask, float tmin, Entry* stack,
                                                             int& sp, const Node* nodes, Leaf&& leaf) {
     // Interior children have count 0 (so do empty slots, but their empty
     // boxes are never in `mask`).
@@ -99,7 +100,7 @@ __attribute__((always_inline)) inline bool any_hit_children(const Node& n, int m
 // starts at the ray's tmax and shrinks to the closest hit so far (inclusive).
 // Forced inline into Bvh::traverse: a call per ray costs primary rays.
 template <bool kAnyHit, bool kCount, bool kFused, class Node>
-__attribute__((always_inline)) inline bool traverse_wide(const Node* nodes, const TrianglePack4* packs,
+COHERENT_ALWAYS_INLINE bool traverse_wide(const Node* nodes, const TrianglePack4* packs,
                                                          const BoxRay<Node>& box_ray, const TriRay& tri_ray,
                                                          float tmin, Closest& best, TraversalCounters* counters) {
     constexpr int W = NodeTraits<Node>::kWidth;

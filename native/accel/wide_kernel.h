@@ -29,6 +29,7 @@
 
 #include "../core/bbox.h"
 #include "../core/float_bounds.h"
+#include "../core/inline.h"
 #include "../core/ray.h"
 #include "../core/simd.h"
 #include "../core/vec.h"
@@ -329,7 +330,7 @@ inline bool intersect_pack(const TrianglePack4& p, int lanes, const TriRay& r, f
 // cost ~10% on primary rays, and GCC left the any-hit instance out of line;
 // see docs/results/traversal_foundation.md.)
 template <bool kAnyHit>
-__attribute__((always_inline)) inline bool intersect_leaf(const TrianglePack4* packs, uint32_t first_pack,
+COHERENT_ALWAYS_INLINE bool intersect_leaf(const TrianglePack4* packs, uint32_t first_pack,
                                                           uint32_t count, const TriRay& r, float tmin,
                                                           Closest& best) {
     bool found = false;

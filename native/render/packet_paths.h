@@ -37,7 +37,7 @@ namespace coherent {
 // row by row. (The stream driver ignores the packets.)
 struct PathTile {
     std::vector<PathState> states;
-    std::vector<PathSampler<ImageSampler>> samplers;
+    std::vector<PathSampler> samplers;
     std::vector<int> px, py;
     std::vector<int> packet_begin;  // packets + 1 entries
     // Heatmaps: node visits per path, and the SIMD lanes (all / active) of

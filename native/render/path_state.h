@@ -31,6 +31,7 @@
 
 #include "../accel/bvh.h"
 #include "../accel/motion_bvh.h"
+#include "../core/inline.h"
 #include "../sample/image_sampler.h"
 #include "../scene/scene.h"
 #include "bsdf.h"
@@ -139,7 +140,7 @@ constexpr bool integrator_uses_lens(Integrator i) {
 
 // The camera ray of pixel (px, py)'s sample.
 template <bool kDepthOfField>
-inline void start_path(const PathContext& ctx, const PathSampler<ImageSampler>& ps, int px, int py, PathState& s) {
+inline void start_path(const PathContext& ctx, const PathSampler& ps, int px, int py, PathState& s) {
     using D = PathDims;
     const RenderSettings& rs = *ctx.settings;
     const float fx = float(px) + ps.get(D::kPixelX);
@@ -158,7 +159,7 @@ inline void start_path(const PathContext& ctx, const PathSampler<ImageSampler>& 
 // The i-th ambient occlusion ray (i < s.ao_rays): cosine-distributed about
 // the geometric normal facing the camera, ao_distance long. Dimensions: the
 // i-th AO ray reads bounce block i's BSDF dimensions.
-inline Ray ao_ray(const PathContext& ctx, const PathSampler<ImageSampler>& ps, const PathState& s, int i) {
+inline Ray ao_ray(const PathContext& ctx, const PathSampler& ps, const PathState& s, int i) {
     using D = PathDims;
     const Vec3f local = sample_cosine_hemisphere(ps.get(D::bounce(i, D::kBsdfU)), ps.get(D::bounce(i, D::kBsdfV)));
     Vec3f t, b;
@@ -171,10 +172,8 @@ inline Ray ao_ray(const PathContext& ctx, const PathSampler<ImageSampler>& ps, c
     return r;
 }
 
-// The steps of shade_hit() are separate functions for reading, not for the
-// compiler: they are always inlined, so the per-hit code is one body as it
-// was before they were named (no calls, no struct copies in the hot path).
-#define COHERENT_ALWAYS_INLINE __attribute__((always_inline)) inline
+// The steps of shade_hit() are always inlined (core/inline.h), so the
+// per-hit code is one body as it was before they were named.
 
 namespace shading {
 
@@ -304,7 +303,7 @@ COHERENT_ALWAYS_INLINE Ray shadow_ray(const SurfacePoint& sp, const LightSample&
 
 // Next-event estimation: samples a light and queues the shadow ray with the
 // contribution it adds if unoccluded.
-COHERENT_ALWAYS_INLINE void queue_shadow_ray(const PathContext& ctx, const PathSampler<ImageSampler>& ps, PathState& s,
+COHERENT_ALWAYS_INLINE void queue_shadow_ray(const PathContext& ctx, const PathSampler& ps, PathState& s,
                              const Bsdf& bsdf, const SurfacePoint& sp) {
     using D = PathDims;
     LightSample ls;
@@ -323,7 +322,7 @@ COHERENT_ALWAYS_INLINE void queue_shadow_ray(const PathContext& ctx, const PathS
 
 // Russian roulette on the path throughput (Cycles: sqrt of the max
 // component); returns whether the path survives, its throughput rescaled.
-COHERENT_ALWAYS_INLINE bool survive_roulette(const PathContext& ctx, const PathSampler<ImageSampler>& ps,
+COHERENT_ALWAYS_INLINE bool survive_roulette(const PathContext& ctx, const PathSampler& ps,
                                              PathState& s) {
     using D = PathDims;
     if (s.bounce < ctx.settings->rr_min_bounces) return true;
@@ -350,7 +349,7 @@ COHERENT_ALWAYS_INLINE void count_bounce(const RenderSettings& rs, PathState& s,
 // Samples the BSDF and sets up the next extension ray (s.alive), unless the
 // sample fails or carries no throughput.
 template <bool kGlass>
-COHERENT_ALWAYS_INLINE void sample_next_ray(const PathContext& ctx, const PathSampler<ImageSampler>& ps, PathState& s,
+COHERENT_ALWAYS_INLINE void sample_next_ray(const PathContext& ctx, const PathSampler& ps, PathState& s,
                             const Bsdf& bsdf, const SurfacePoint& sp) {
     using D = PathDims;
     BsdfSample bs;
@@ -381,7 +380,7 @@ COHERENT_ALWAYS_INLINE void sample_next_ray(const PathContext& ctx, const PathSa
 // Precondition: s.alive and !s.has_shadow. Afterwards the path may have a
 // shadow ray queued even when it ended (!s.alive): drivers resolve it either way.
 template <bool kGlass, bool kLights>
-inline void shade_hit(const PathContext& ctx, const PathSampler<ImageSampler>& ps, PathState& s, bool found,
+inline void shade_hit(const PathContext& ctx, const PathSampler& ps, PathState& s, bool found,
                       const Hit& hit) {
     using namespace shading;
     const Scene& scene = *ctx.scene;
@@ -420,7 +419,7 @@ inline void shade_hit(const PathContext& ctx, const PathSampler<ImageSampler>& p
 // path's next extension ray.
 COHERENT_ALWAYS_INLINE int occlusion_ray_count(const PathState& s) { return s.has_shadow ? 1 : s.ao_rays; }
 
-COHERENT_ALWAYS_INLINE Ray occlusion_ray(const PathContext& ctx, const PathSampler<ImageSampler>& ps,
+COHERENT_ALWAYS_INLINE Ray occlusion_ray(const PathContext& ctx, const PathSampler& ps,
                                          const PathState& s, int k) {
     return s.has_shadow ? s.shadow : ao_ray(ctx, ps, s, k);
 }

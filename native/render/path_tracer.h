@@ -15,14 +15,13 @@
 // So max_bounces = 0 gives direct lighting only, as in Blender.
 #pragma once
 
-#include <type_traits>
 
 #include "path_state.h"
 
 namespace coherent {
 
 // Traces a path's occlusion rays one at a time and resolves them.
-COHERENT_ALWAYS_INLINE void trace_occlusion_rays(const PathContext& ctx, const PathSampler<ImageSampler>& ps,
+COHERENT_ALWAYS_INLINE void trace_occlusion_rays(const PathContext& ctx, const PathSampler& ps,
                                                  PathState& s, int bounce, RenderStats& st, uint32_t* node_visits) {
     const int rays = occlusion_ray_count(s);
     if (rays == 0) return;
@@ -37,7 +36,7 @@ COHERENT_ALWAYS_INLINE void trace_occlusion_rays(const PathContext& ctx, const P
 }
 
 template <bool kGlass, bool kDepthOfField, bool kLights>
-PathOutput trace_path(const PathContext& ctx, const PathSampler<ImageSampler>& ps, int px, int py, RenderStats& st,
+PathOutput trace_path(const PathContext& ctx, const PathSampler& ps, int px, int py, RenderStats& st,
                       uint32_t* node_visits = nullptr) {
     const Bvh& bvh = *ctx.bvh;
     PathState s;
@@ -52,16 +51,6 @@ PathOutput trace_path(const PathContext& ctx, const PathSampler<ImageSampler>& p
         trace_occlusion_rays(ctx, ps, s, bounce, st, node_visits);
     }
     return s.out;
-}
-
-// The spelling tests/native/test_wavefront.cpp still uses, from when the
-// sampler was a template parameter; ImageSampler is the only sampler.
-// Remove once that test calls trace_path<kGlass, kDepthOfField, kLights>.
-template <class Sampler, bool kGlass, bool kDepthOfField, bool kLights>
-    requires std::is_same_v<Sampler, ImageSampler>
-PathOutput trace_path(const PathContext& ctx, const PathSampler<ImageSampler>& ps, int px, int py, RenderStats& st,
-                      uint32_t* node_visits = nullptr) {
-    return trace_path<kGlass, kDepthOfField, kLights>(ctx, ps, px, py, st, node_visits);
 }
 
 }  // namespace coherent

@@ -70,7 +70,7 @@ void render_tile(const TileJob& job, RenderStats& st) {
         if (job.cancelled->load(std::memory_order_relaxed)) return;
         for (int x = job.x0; x < job.x1; ++x) {
             if (job.skip(x, y)) continue;
-            const PathSampler<ImageSampler> ps(*job.sampler, uint32_t(x), uint32_t(y), job.sample);
+            const PathSampler ps(*job.sampler, uint32_t(x), uint32_t(y), job.sample);
             uint32_t visits = 0;
             const PathOutput o =
                 trace_path<kGlass, kDepthOfField, kLights>(*job.ctx, ps, x, y, st, job.heatmaps ? &visits : nullptr);

@@ -80,7 +80,7 @@ WavefrontOptions WavefrontOptions::from_settings(const RenderSettings& rs) {
 struct WavefrontRenderer::Buffers {
     // Per path.
     std::vector<int> px, py;
-    std::vector<PathSampler<ImageSampler>> samplers;
+    std::vector<PathSampler> samplers;
     std::vector<PathState> states;
     std::vector<uint32_t> visits;   // node visits (heatmaps)
     std::vector<uint32_t> shaded;   // paths shaded in the current bounce

@@ -72,4 +72,7 @@ private:
     IcptSampler icpt_;
 };
 
+inline PathSampler::PathSampler(const ImageSampler& s, uint32_t px, uint32_t py, uint32_t sample)
+    : stream_(s.stream(px, py, sample)) {}
+
 }  // namespace coherent

@@ -71,10 +71,11 @@ private:
 // (stratified, Latin hypercube) effective and makes CPT's shared sequence
 // drive the same decision in every pixel: rays of a packet that are at the
 // same bounce consumed the same numbers for it.
-template <class Sampler>
+class ImageSampler;
 class PathSampler {
 public:
-    PathSampler(const Sampler& s, uint32_t px, uint32_t py, uint32_t sample) : stream_(s.stream(px, py, sample)) {}
+    // Defined in image_sampler.h, the one sampler a render uses.
+    PathSampler(const ImageSampler& s, uint32_t px, uint32_t py, uint32_t sample);
     float get(uint32_t dim) const { return stream_.get(dim); }
 
 private:

@@ -264,7 +264,7 @@ TEST(Sampler, ImageSamplerDispatchesAndPathSamplerReadsTheSameStream) {
             EXPECT_EQ(cpt.get(3, 5, k, d), cpt_ref.get(3, 5, k, d));
             EXPECT_EQ(icpt.get(3, 5, k, d), icpt_ref.get(3, 5, k, d));
             EXPECT_EQ(spt.get(3, 5, k, d), spt_ref.get(3, 5, k, d));
-            EXPECT_EQ(PathSampler<ImageSampler>(icpt, 3, 5, k).get(d), icpt_ref.get(3, 5, k, d));
+            EXPECT_EQ(PathSampler(icpt, 3, 5, k).get(d), icpt_ref.get(3, 5, k, d));
         }
     // Non-square packets: ICPT blocks use the shorter side.
     c.type = SamplerType::Icpt;

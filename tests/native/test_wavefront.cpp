@@ -97,8 +97,8 @@ Image render_single(WaveSetup& su, RenderStats* stats = nullptr) {
         const ImageSampler sampler(su.cfg, uint32_t(pass), 1);
         for (int y = 0; y < su.rs.height; ++y)
             for (int x = 0; x < su.rs.width; ++x) {
-                const PathSampler<ImageSampler> ps(sampler, uint32_t(x), uint32_t(y), uint32_t(pass));
-                img[su.index(pass, x, y)] = trace_path<ImageSampler, true, false, true>(su.ctx, ps, x, y, st);
+                const PathSampler ps(sampler, uint32_t(x), uint32_t(y), uint32_t(pass));
+                img[su.index(pass, x, y)] = trace_path<true, false, true>(su.ctx, ps, x, y, st);
             }
     }
     if (stats) *stats = st;
