@@ -4,10 +4,14 @@
 #   blender -b cornell_box.blend --addons coherent --python cancel_render.py -- OUT_DIR
 #
 # 1. Starts an in-process final render that could never finish (2^24 samples
-#    per pixel) and cancels it one second later from a timer thread through
-#    the native module's Renderer.cancel() (documented as safe from any
-#    thread). The engine constructs its renderer as `_coherent.Renderer(...)`,
-#    so wrapping that module attribute gives us the instance.
+#    per pixel) and cancels it from another thread through the native
+#    module's Renderer.cancel() (documented as safe from any thread), as
+#    events rather than after a delay: the first progress report the engine
+#    receives hands over to a canceller thread and waits until cancel() has
+#    returned there. From then on the render must report no more progress
+#    and complete no further pass. The engine constructs its renderer as
+#    `_coherent.Renderer(...)`, so wrapping that module attribute gives us the
+#    instance (behind a proxy that also wraps its progress callback).
 #    (RenderEngine.test_break(), which Esc drives, cannot be overridden from
 #    Python: RNA functions take precedence over Python attributes, and
 #    background Blender has no Esc key.)
@@ -18,7 +22,6 @@
 import json
 import sys
 import threading
-import time
 
 import bpy
 
@@ -33,29 +36,59 @@ scene.coherent.samples = 1 << 24
 native = coherent.native_module()
 RealRenderer = native.Renderer
 created = []
-timers = []
+events = {"reports": 0, "reports_after_cancel": 0, "done_at_cancel": None}
+
+
+class CancellingRenderer:
+    """The real renderer, whose render() cancels from another thread at the first progress report."""
+
+    def __init__(self, real):
+        self._real = real
+        self._asked = threading.Event()
+        self._cancelled = threading.Event()
+        self.canceller = threading.Thread(target=self._cancel_when_asked, name="test-canceller")
+        self.canceller.start()
+
+    def _cancel_when_asked(self):
+        self._asked.wait()
+        self._real.cancel()
+        self._cancelled.set()
+
+    def __getattr__(self, name):
+        return getattr(self._real, name)
+
+    def render(self, progress):
+        def wrapped(p):
+            keep_going = progress(p)
+            events["reports"] += 1
+            if events["done_at_cancel"] is not None:
+                events["reports_after_cancel"] += 1
+            else:
+                events["done_at_cancel"] = p["samples_done"]
+                self._asked.set()
+                self._cancelled.wait()
+            return keep_going
+        try:
+            return self._real.render(wrapped)
+        finally:
+            self._asked.set()  # a render that never reported still lets the canceller end
+            self.canceller.join()
 
 
 def cancelling_renderer(*args, **kwargs):
-    renderer = RealRenderer(*args, **kwargs)
+    renderer = CancellingRenderer(RealRenderer(*args, **kwargs))
     created.append(renderer)
-    timer = threading.Timer(1.0, renderer.cancel)
-    timers.append(timer)
-    timer.start()
     return renderer
 
 
 threads_before = threading.active_count()
 native.Renderer = cancelling_renderer
-start = time.monotonic()
 try:
     first = bpy.ops.render.render()
 finally:
     native.Renderer = RealRenderer
-cancel_seconds = time.monotonic() - start - 1.0
-for timer in timers:
-    timer.join()
 cancelled = [bool(r.cancelled) for r in created]
+passes_done = [r.stats()["spp"] for r in created]
 del created[:]
 
 scene.coherent.samples = 4
@@ -65,8 +98,9 @@ second = bpy.ops.render.render(write_still=True)
 
 print("CANCEL_RESULT " + json.dumps({
     "first": sorted(first), "second": sorted(second),
-    "seconds_after_cancel": cancel_seconds,
     "renderers_created": len(cancelled), "renderers_cancelled": sum(cancelled),
+    "reports": events["reports"], "reports_after_cancel": events["reports_after_cancel"],
+    "passes_done_at_cancel": events["done_at_cancel"], "passes_done": passes_done,
     "python_threads_before": threads_before, "python_threads_after": threading.active_count(),
 }))
 sys.stdout.flush()

@@ -111,9 +111,9 @@ def test_estimate_on_cornell_box(blender, blend_scenes, tmp_path):
     r, result = run_driver(blender, blend_scenes, tmp_path, "table")
     check_table(r)
     assert r["film_size"] == [48, 48] and r["pilot_size"] == [48, 48]
-    # Each pilot has a 0.4 s budget (at least 8 passes): the blocking call
-    # must not hold Blender for much longer than the three pilots plus export.
-    assert sum(f["pilot_seconds"] for f in r["fits"]) < r["seconds"] < 60.0
+    # The blocking call ran the three pilots (each at least 8 passes) within it.
+    assert all(f["pilot_seconds"] > 0 for f in r["fits"]), r["fits"]
+    assert sum(f["pilot_seconds"] for f in r["fits"]) <= r["seconds"]
     assert "Traceback" not in result.output, result.describe()
 
 
@@ -158,7 +158,7 @@ def test_unrenderable_scene_reports_an_error(blender, blend_scenes, tmp_path, mo
 # --- interactive: a real window under Xvfb ------------------------------------------
 
 GUI_DRIVER = textwrap.dedent(r'''
-    import json, sys, threading, time, traceback
+    import json, sys, threading, traceback
     import bpy
 
     out = sys.argv[sys.argv.index("--") + 1]
@@ -170,8 +170,8 @@ GUI_DRIVER = textwrap.dedent(r'''
     q = scene.coherent_quality
     q.pilot_seconds = 1.0
     q.pilot_max_pixels = 64 * 64
-    res = {"gaps": [], "fractions": [], "draws_with_table": 0}
-    state = {"phase": "start", "t": time.perf_counter()}
+    res = {"fractions": [], "draws_with_table": 0}
+    state = {"phase": "start", "ticks": 0}
 
     # The Quality Cost panel is a closed sub-panel; draw the same draw() in a
     # top-level open panel of the window's Properties editor, and count the
@@ -203,54 +203,55 @@ GUI_DRIVER = textwrap.dedent(r'''
 
     def tick():
         try:
-            now = time.perf_counter()
             phase = state["phase"]
+            state["ticks"] += 1
             if phase == "start":
                 res["main_thread"] = threading.get_ident()
-                start = time.perf_counter()
                 with bpy.context.temp_override(**window_context()):
                     res["invoke"] = sorted(bpy.ops.coherent.estimate_quality_cost("INVOKE_DEFAULT"))
-                res["invoke_seconds"] = time.perf_counter() - start
+                # invoke() has returned: is the estimate still running behind it?
+                job = quality._active_job
+                res["running_after_invoke"] = job is not None and job.fraction < 1.0
                 res["render_thread"] = None
-                state.update(phase="running", t=start, last=time.perf_counter())
+                res["ticks_while_running"] = 0
+                state.update(phase="running")
             elif phase == "running":
-                res["gaps"].append(now - state["last"])
-                state["last"] = now
                 job = quality._active_job
                 if job is not None:
+                    res["ticks_while_running"] += 1
                     res["fractions"].append(job.fraction)
                     res["render_thread"] = job.thread_id or res["render_thread"]
                 else:
-                    res["duration"] = now - state["t"]
                     res["status"] = q.status
                     res["rows"] = [dict(error=r.error, seconds=list(r.seconds), spp=list(r.spp)) for r in q.rows]
                     with bpy.context.temp_override(**window_context()):
                         bpy.ops.coherent.estimate_quality_cost("INVOKE_DEFAULT")
-                    state.update(phase="to_cancel", t=time.perf_counter())
+                    state.update(phase="to_cancel")
             elif phase == "to_cancel":
                 job = quality._active_job
                 if job is not None and job.fraction > 0.0:
                     bpy.ops.coherent.cancel_quality_cost()
-                    state.update(phase="cancelling", t=time.perf_counter(), job=job)
-                elif job is None or now - state["t"] > 30:
+                    # Pilots done when cancel() returned: at most the one in
+                    # flight may still complete (it may have been finishing
+                    # just then); no later one may.
+                    res["completed_at_cancel"] = len(job.points)
+                    state.update(phase="cancelling", job=job, ticks=0)
+                elif job is None:
                     res["error"] = "second estimate ended before it could be cancelled"
                     finish()
                     return None
             elif phase == "cancelling":
-                if quality._active_job is None and res["draws_with_table"] == 0 and now - state["t"] < 20:
+                # Wait (a bounded number of redraws) for one that shows the table.
+                if quality._active_job is None and res["draws_with_table"] == 0 and state["ticks"] < 200:
                     for area in bpy.context.window_manager.windows[0].screen.areas:
                         area.tag_redraw()
-                    return 0.1  # wait for a redraw that shows the table
+                    return 0.1
                 if quality._active_job is None:
                     job = state["job"]
-                    # From the request to the pilot thread's end (our timer ticks are coarse).
-                    res["cancel_seconds"] = job.ended_at - job.cancel_requested_at
+                    res["completed_at_end"] = len(job.points)
+                    res["fraction_at_end"] = job.fraction
                     res["cancel_status"] = q.status
                     res["rows_after_cancel"] = len(q.rows)
-                    finish()
-                    return None
-                if now - state["t"] > 30:
-                    res["error"] = "cancel did not stop the estimate"
                     finish()
                     return None
             return 0.02
@@ -285,20 +286,22 @@ def test_interactive_estimate_keeps_ui_responsive_and_cancels(user_scripts, blen
     assert "error" not in r, r["error"] + "\n" + result.describe()
     assert r["invoke"] == ["RUNNING_MODAL"]
     # Blender's main thread is not held by the estimate: invoke() returned
-    # long before the three 1 s pilots were done, they rendered on another
-    # thread, and our timer (run by Blender's event loop) fired while the
-    # estimate was part-way through. (How often it fires says little here:
-    # under Xvfb every redraw is software OpenGL on a shared 2-core machine.)
-    assert r["duration"] > 3.0, r["duration"]
-    assert r["invoke_seconds"] < 1.0, r["invoke_seconds"]
+    # while the pilots were still running, they rendered on another thread,
+    # and our timer (run by Blender's event loop) fired repeatedly while the
+    # estimate was part-way through. Events, not seconds: how often the
+    # timer fires says little on a shared machine under Xvfb.
+    assert r["running_after_invoke"] is True
+    assert r["ticks_while_running"] >= 2, r["ticks_while_running"]
     assert r["render_thread"] is not None and r["render_thread"] != r["main_thread"]
     assert any(0.0 < f < 1.0 for f in r["fractions"]), r["fractions"]
     # The progress fraction only grows, within [0, 1].
     fr = r["fractions"]
     assert all(0.0 <= a <= b <= 1.0 for a, b in zip(fr, fr[1:])), fr
     assert len(r["rows"]) == 4 and all(s > 0 and math.isfinite(s) for row in r["rows"] for s in row["seconds"])
-    # Cancel stops the second estimate promptly and keeps the first table.
-    assert r["cancel_seconds"] < 1.0, r["cancel_seconds"]
+    # Cancel stops the second estimate within the pilot in flight (no later
+    # pilot completes, the estimate never finishes) and keeps the first table.
+    assert r["completed_at_end"] <= r["completed_at_cancel"] + 1, r
+    assert r["completed_at_end"] < 3 and r["fraction_at_end"] < 1.0, r
     assert r["cancel_status"] == "Estimate cancelled"
     assert r["rows_after_cancel"] == 4
     # The panel drew the table without errors.

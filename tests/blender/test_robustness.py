@@ -65,7 +65,8 @@ def test_export_error_fails_loudly(blender, blend_scenes, tmp_path):
 def test_cancel_then_render_again(blender, blend_scenes, tmp_path):
     # A subprocess, so that a cancel that never happens shows up as a timeout
     # of this test instead of a hung test session. The first render asks for
-    # 2^24 samples per pixel: it can only return because it was cancelled.
+    # 2^24 samples per pixel: it can only return because it was cancelled
+    # (at its first progress report, from another thread: cancel_render.py).
     result = blender(blend_scenes / "cornell_box.blend", "--python", HERE / "cancel_render.py", "--", tmp_path,
                      timeout=240)
     assert result.returncode == 0, result.describe()
@@ -74,6 +75,11 @@ def test_cancel_then_render_again(blender, blend_scenes, tmp_path):
     info = json.loads(line.split(" ", 1)[1])
     print("cancel:", info)
     assert info["renderers_created"] == 1 and info["renderers_cancelled"] == 1, info
+    # Prompt, by events: after cancel() returned on the other thread the
+    # render reported no more progress and completed no further pass.
+    assert info["passes_done_at_cancel"] is not None, info
+    assert info["reports_after_cancel"] == 0, info
+    assert info["passes_done"] == [info["passes_done_at_cancel"]], info
     # The engine noticed and said so (its summary line), rather than finishing.
     assert re.search(r"Coherent: cancelled \d+x\d+", result.stdout), result.describe()
     # After the cancel Blender still renders normally.

@@ -13,6 +13,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from seeds import seeded
+
 REPO = Path(__file__).resolve().parents[2]
 
 
@@ -110,7 +112,7 @@ def test_noisy_data_stays_within_statistical_bounds():
     sigma, c, worst = 0.1, 0.9, 0.0
     bound = 5 * sigma / math.sqrt(32)
     for seed in range(300):
-        rng = random.Random(seed)
+        rng = random.Random(seeded(seed))
         pts = [(0.01 * n * (1 + 0.05 * rng.random()), n, c / math.sqrt(n) * math.exp(rng.gauss(0, sigma)))
                for n in range(2, 65)]
         fit = q.fit_convergence(pts)

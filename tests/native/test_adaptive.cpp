@@ -9,9 +9,12 @@
 
 #include <cmath>
 #include <cstdio>
+#include <map>
+#include <string>
 #include <vector>
 
 #include "test_render_helpers.h"
+#include "test_seed.h"
 
 namespace coherent {
 namespace {
@@ -143,8 +146,8 @@ TEST(Adaptive, UnbiasedAgainstFullRenderOverSeeds) {
     double converged_sum = 0.0, mean_full = 0.0;
     for (int s = 0; s < kSeeds; ++s) {
         RenderStats st;
-        const auto ad = test::render_combined(scene, settings(true, 1000 + s), &st);
-        const auto full = test::render_combined(scene, settings(false, 1000 + s));
+        const auto ad = test::render_combined(scene, settings(true, test::test_seed(1000 + s)), &st);
+        const auto full = test::render_combined(scene, settings(false, test::test_seed(1000 + s)));
         converged_sum += st.converged_fraction();
         const double mf = image_mean(full);
         mean_full += mf / kSeeds;
@@ -167,6 +170,215 @@ TEST(Adaptive, UnbiasedAgainstFullRenderOverSeeds) {
         // A pixel that never converged has identical samples in both: diff 0.
         EXPECT_LE(std::abs(p.mean), 4.0 * p.stderr_of_mean() + 1e-7);
     }
+}
+
+// Adaptive sampling under every sampler and traversal. Each combination
+// keeps the bookkeeping invariants (converged pixels stop at even counts
+// >= the minimum and below spp, the others get every pass, the stats count
+// the film's samples) and stays unbiased against the full render over
+// paired seeds at 4.5 standard errors. Packets, streams and wavefronts
+// trace the same hits as single rays, so for one sampler every traversal
+// also makes the same convergence decisions and the same image.
+struct Mode {
+    SamplerType sampler;
+    Traversal traversal;
+};
+
+std::string mode_name(const Mode& m) {
+    return std::string(sampler_type_name(m.sampler)) + "/" + std::string(traversal_name(m.traversal));
+}
+
+RenderSettings mode_settings(const Mode& m, bool adaptive, uint64_t seed) {
+    RenderSettings rs = settings(adaptive, seed);
+    rs.sampler = m.sampler;
+    rs.traversal = m.traversal;
+    rs.threads = 2;
+    return rs;
+}
+
+void expect_bookkeeping(const Renderer& r, const std::string& what) {
+    const RenderStats& st = r.stats();
+    uint64_t total = 0, converged = 0;
+    for (int y = 0; y < kRes; ++y)
+        for (int x = 0; x < kRes; ++x) {
+            const uint32_t n = r.film().samples_at(x, y);
+            total += n;
+            if (r.pixel_converged(x, y)) {
+                ++converged;
+                EXPECT_EQ(n % 2, 0u) << what;
+                EXPECT_GE(n, 8u) << what;
+                EXPECT_LT(n, uint32_t(kSpp)) << what;
+            } else {
+                EXPECT_EQ(n, uint32_t(st.spp)) << what;
+            }
+        }
+    EXPECT_EQ(converged, st.converged_pixels) << what;
+    EXPECT_EQ(total, st.samples) << what;
+    EXPECT_GT(st.converged_fraction(), 0.3) << what << ": nothing to test";
+}
+
+TEST(Adaptive, EverySamplerAndTraversalKeepsTheRules) {
+    const Scene scene = test::sphere_on_floor_scene();
+    for (SamplerType sampler : {SamplerType::Spt, SamplerType::Cpt, SamplerType::Icpt}) {
+        std::vector<float> single_image;
+        std::vector<uint32_t> single_counts;
+        for (Traversal traversal : {Traversal::Single, Traversal::Packet, Traversal::Stream, Traversal::Wavefront}) {
+            const Mode m{sampler, traversal};
+            Renderer r(scene, mode_settings(m, true, test::test_seed(5)));
+            ASSERT_TRUE(r.render());
+            ASSERT_EQ(r.settings().traversal, traversal) << mode_name(m);
+            expect_bookkeeping(r, mode_name(m));
+            std::vector<uint32_t> counts;
+            for (int y = 0; y < kRes; ++y)
+                for (int x = 0; x < kRes; ++x) counts.push_back(r.film().samples_at(x, y));
+            const auto img = r.film().resolve(PassType::Combined);
+            if (traversal == Traversal::Single) {
+                single_image = img;
+                single_counts = counts;
+            } else {
+                EXPECT_EQ(counts, single_counts) << mode_name(m) << ": other convergence decisions than single rays";
+                EXPECT_EQ(img, single_image) << mode_name(m) << ": another image than single rays";
+            }
+        }
+    }
+}
+
+TEST(Adaptive, UnbiasedForEverySamplerOverSeeds) {
+    const Scene scene = test::sphere_on_floor_scene();
+    constexpr int kSeeds = 60;
+    for (const Mode& m : {Mode{SamplerType::Cpt, Traversal::Packet}, Mode{SamplerType::Icpt, Traversal::Packet},
+                          Mode{SamplerType::Spt, Traversal::Wavefront}}) {
+        std::vector<double> d;
+        for (int s = 0; s < kSeeds; ++s) {
+            const uint64_t seed = test::test_seed(2000 + s);
+            const auto ad = test::render_combined(scene, mode_settings(m, true, seed));
+            const auto full = test::render_combined(scene, mode_settings(m, false, seed));
+            d.push_back(image_mean(ad) - image_mean(full));
+        }
+        const test::MeanVar mv = test::mean_var(d);
+        std::printf("adaptive bias %-15s: diff %.2e +- %.2e (%.2f sigma)\n", mode_name(m).c_str(), mv.mean,
+                    mv.stderr_of_mean(), mv.mean / mv.stderr_of_mean());
+        EXPECT_GT(mv.stderr_of_mean(), 0.0) << mode_name(m);
+        EXPECT_LT(std::abs(mv.mean), 4.5 * mv.stderr_of_mean()) << mode_name(m);
+    }
+}
+
+// Adaptive sampling together with a target error: whichever rule ends the
+// render, it ends at an even pass; if the target ended it, the image
+// estimate meets it there and at no earlier even pass; converged pixels
+// still hold their own (even) counts.
+TEST(Adaptive, WithTargetErrorStopsByEitherRule) {
+    const Scene scene = test::sphere_on_floor_scene();
+    for (SamplerType sampler : {SamplerType::Spt, SamplerType::Cpt, SamplerType::Icpt}) {
+        RenderSettings rs = settings(true, test::test_seed(17));
+        rs.sampler = sampler;
+        rs.spp = 4096;
+        rs.target_error = 0.05;
+        Renderer r(scene, rs);
+        std::vector<double> estimate_at(rs.spp + 1, -1.0);
+        ASSERT_TRUE(r.render([&](const Progress& p) {
+            if (p.samples_done > 0) estimate_at[p.samples_done] = p.error_estimate;
+            return true;
+        }));
+        const RenderStats& st = r.stats();
+        const std::string what = std::string(sampler_type_name(sampler));
+        ASSERT_LT(st.spp, rs.spp) << what << ": neither rule stopped the render";
+        EXPECT_EQ(st.spp % 2, 0) << what;
+        EXPECT_GT(st.converged_pixels, 0u) << what << ": adaptive sampling never acted";
+        const bool all_converged = st.converged_pixels == st.pixels;
+        EXPECT_TRUE(all_converged || st.error_estimate <= rs.target_error) << what;
+        for (int n = 2; n < st.spp; n += 2) EXPECT_GT(estimate_at[n], rs.target_error) << what << " at " << n;
+        EXPECT_DOUBLE_EQ(st.error_estimate, r.film().relative_rmse_estimate()) << what;
+        uint64_t total = 0;
+        for (int y = 0; y < kRes; ++y)
+            for (int x = 0; x < kRes; ++x) {
+                const uint32_t n = r.film().samples_at(x, y);
+                total += n;
+                EXPECT_EQ(n % 2, 0u) << what;
+                if (!r.pixel_converged(x, y)) {
+                    EXPECT_EQ(n, uint32_t(st.spp)) << what;
+                }
+            }
+        EXPECT_EQ(total, st.samples) << what;
+        std::printf("adaptive + target %-4s: stopped at %d passes, estimate %.4f, %.0f%% converged\n", what.c_str(),
+                    st.spp, st.error_estimate, 100.0 * st.converged_fraction());
+    }
+}
+
+// The error estimate when pixels stop at different counts, per pixel: each
+// pixel's Error-pass value is its own even/odd estimate at its own count,
+// exactly the full render's at that count (its samples are the same).
+TEST(Adaptive, PixelErrorIsTheEstimateAtThePixelsOwnCount) {
+    const Scene scene = test::sphere_on_floor_scene();
+    Renderer ad(scene, settings(true, test::test_seed(31)));
+    ASSERT_TRUE(ad.render());
+    const auto err = ad.film().resolve(PassType::Error);
+    std::map<uint32_t, std::vector<float>> full_err;  // by spp
+    for (int y = 0; y < kRes; ++y)
+        for (int x = 0; x < kRes; ++x) {
+            const uint32_t n = ad.film().samples_at(x, y);
+            if (!full_err.count(n)) {
+                RenderSettings rs = settings(false, test::test_seed(31));
+                rs.spp = int(n);
+                Renderer f(scene, rs);
+                ASSERT_TRUE(f.render());
+                full_err[n] = f.film().resolve(PassType::Error);
+            }
+            EXPECT_EQ(err[size_t(y) * kRes + x], full_err[n][size_t(y) * kRes + x]) << x << "," << y << " n " << n;
+        }
+    EXPECT_GE(full_err.size(), 2u) << "every pixel stopped at the same count: nothing tested";
+}
+
+// The image estimate when pixels stop at different counts, calibrated
+// against the true error over seeds as in test_error_estimate.cpp:
+// R = mean(e^2) / mean(t^2) within 4.5 measured standard errors of 1. The
+// truth comes from an independent reference, the mean of two 4096-spp
+// renders whose own error is measured from their difference.
+//
+// FAILS at the time of writing: R = 0.38 +- 0.04 (100 seeds). A pixel
+// stops when its own (and its neighbours') estimate is small, which selects
+// the pixels whose estimate is low by chance, so the estimate is optimistic:
+// with adaptive sampling plus a target error the render stops at an RMSE
+// about 1.6x the target. Kept failing to report the finding (the engine is
+// not this change's to fix).
+TEST(Adaptive, ImageErrorEstimateCalibratedUnderAdaptiveStops) {
+    const Scene scene = test::sphere_on_floor_scene();
+    RenderSettings ref_rs = settings(false, test::test_seed(90001));
+    ref_rs.spp = 4096;
+    const auto ra = test::render_combined(scene, ref_rs);
+    ref_rs.seed = test::test_seed(90002);
+    const auto rb = test::render_combined(scene, ref_rs);
+    std::vector<float> ref(ra.size());
+    for (size_t i = 0; i < ra.size(); ++i) ref[i] = 0.5f * (ra[i] + rb[i]);
+    auto mean_sq_diff = [](const std::vector<float>& a, const std::vector<float>& b) {
+        double e2 = 0.0;
+        for (size_t i = 0; i < a.size(); i += 4)
+            for (int c = 0; c < 3; ++c) e2 += (double(a[i + c]) - b[i + c]) * (double(a[i + c]) - b[i + c]);
+        return e2 / (3.0 * double(a.size() / 4));
+    };
+    const double ref_mean = image_mean(ref);
+    const double ref_err2 = mean_sq_diff(ra, ref) / (ref_mean * ref_mean);  // (A - B)^2 / 4
+
+    constexpr int kSeeds = 60;
+    std::vector<double> e2, t2;
+    for (int s = 0; s < kSeeds; ++s) {
+        Renderer r(scene, settings(true, test::test_seed(300 + s)));
+        ASSERT_TRUE(r.render());
+        const double e = r.film().relative_rmse_estimate();
+        e2.push_back(e * e);
+        t2.push_back(mean_sq_diff(r.film().resolve(PassType::Combined), ref) / (ref_mean * ref_mean) - ref_err2);
+    }
+    double me = 0.0, mt = 0.0;
+    for (int s = 0; s < kSeeds; ++s) me += e2[s] / kSeeds, mt += t2[s] / kSeeds;
+    ASSERT_GT(mt, 0.0);
+    const double ratio = me / mt;
+    double var = 0.0;
+    for (int s = 0; s < kSeeds; ++s) var += (e2[s] - ratio * t2[s]) * (e2[s] - ratio * t2[s]) / (kSeeds - 1);
+    const double se = std::sqrt(var / kSeeds) / mt;
+    std::printf("adaptive error estimate: estimate %.4f, true %.4f, R %.3f +- %.3f\n", std::sqrt(me),
+                std::sqrt(mt), ratio, se);
+    EXPECT_LT(4.5 * se, 1.0) << "too noisy to tell a factor 2";
+    EXPECT_LE(std::abs(ratio - 1.0), 4.5 * se) << "the estimate is not calibrated under adaptive stops";
 }
 
 }  // namespace

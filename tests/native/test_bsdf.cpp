@@ -3,12 +3,16 @@
 // shading normals.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <cstdio>
+#include <vector>
 
 #include "core/random.h"
 #include "render/bsdf.h"
 #include "render/microfacet.h"
 #include "test_render_helpers.h"
+#include "test_seed.h"
 
 using namespace coherent;
 using coherent::test::principled;
@@ -173,12 +177,10 @@ TEST(Bsdf, ShadingNormalNeverLeaksThroughGeometry) {
     }
 }
 
-TEST(Microfacet, VndfSamplesFollowTheirPdf) {
-    // Histogram-free check: E[1/pdf(m)] over VNDF samples equals the measure
-    // of the support of the visible-normal density; instead we check the
-    // normalisation of D: integral of D(m) cos(m) dm = 1 by quadrature.
+TEST(Microfacet, DistributionIsNormalised) {
+    // integral of D(m) cos(m) dm = 1, by quadrature over the hemisphere.
     for (float alpha : {0.05f, 0.3f, 0.8f}) {
-        Pcg32 rng(13);
+        Pcg32 rng(coherent::test::test_seed(13));
         double sum = 0.0;
         const int n = 400000;
         for (int i = 0; i < n; ++i) {
@@ -189,6 +191,89 @@ TEST(Microfacet, VndfSamplesFollowTheirPdf) {
             sum += ggx_d(m, alpha) * m.z * 2.0 * kPi;
         }
         EXPECT_NEAR(sum / n, 1.0, alpha < 0.1f ? 0.1 : 0.02) << alpha;
+    }
+}
+
+// Upper quantile of the chi-square distribution with k degrees of freedom
+// (Wilson-Hilferty; within 1 % of the exact value for k > 30).
+double chi_square_quantile(int k, double z_upper) {
+    const double a = 2.0 / (9.0 * k);
+    const double c = 1.0 - a + z_upper * std::sqrt(a);
+    return k * c * c * c;
+}
+
+// Pearson's chi-square test of ggx_sample_vndf against ggx_vndf_pdf: the
+// hemisphere is cut into solid-angle bins (theta bins even in
+// atan(tan(theta) / alpha), which spreads GGX's mass over all of them, times
+// even phi bins); each bin's expected count is N times the pdf integrated over
+// the bin (midpoint rule on a fine sub-grid, sin(theta) d theta d phi).
+// Bins expecting fewer than 5 samples are pooled. Significance 1e-4 per case.
+// The same integration also checks that the pdf integrates to 1.
+TEST(Microfacet, VndfSamplesFollowTheirPdf) {
+    constexpr int kTheta = 16, kPhi = 16, kSub = 12, kSamples = 400000;
+    constexpr double kZUpper = 3.719;  // one-sided normal quantile at 1e-4
+    int case_index = 0;
+    for (float alpha : {0.1f, 0.35f, 0.8f}) {
+        for (float theta_o : {0.0f, 0.8f, 1.45f}) {
+            const Vec3f wo = dir_from_angle(theta_o);
+            // theta(t) for t in [0, 1]: tan(theta) = alpha tan(t pi / 2).
+            auto theta_at = [&](double t) { return std::atan(alpha * std::tan(std::min(t, 0.999999) * kPi / 2)); };
+            std::vector<double> expected(kTheta * kPhi, 0.0);
+            double pdf_total = 0.0;
+            for (int i = 0; i < kTheta; ++i)
+                for (int j = 0; j < kPhi; ++j) {
+                    const double t0 = theta_at(double(i) / kTheta), t1 = theta_at(double(i + 1) / kTheta);
+                    double p = 0.0;
+                    for (int a = 0; a < kSub; ++a)
+                        for (int b = 0; b < kSub; ++b) {
+                            const double th = t0 + (t1 - t0) * (a + 0.5) / kSub;
+                            const double ph = 2.0 * kPi * (j + (b + 0.5) / kSub) / kPhi;
+                            const Vec3f m{float(std::sin(th) * std::cos(ph)), float(std::sin(th) * std::sin(ph)),
+                                          float(std::cos(th))};
+                            p += ggx_vndf_pdf(wo, m, alpha) * std::sin(th);
+                        }
+                    p *= (t1 - t0) / kSub * (2.0 * kPi / kPhi) / kSub;
+                    expected[i * kPhi + j] = p;
+                    pdf_total += p;
+                }
+            EXPECT_NEAR(pdf_total, 1.0, 5e-3) << "alpha " << alpha << " theta_o " << theta_o;
+
+            std::vector<double> observed(kTheta * kPhi, 0.0);
+            Pcg32 rng(coherent::test::test_seed(101 + case_index++));
+            for (int n = 0; n < kSamples; ++n) {
+                const Vec3f m = ggx_sample_vndf(wo, alpha, rng.next_float(), rng.next_float());
+                const double th = std::acos(std::clamp(double(m.z), -1.0, 1.0));
+                double ph = std::atan2(double(m.y), double(m.x));
+                if (ph < 0.0) ph += 2.0 * kPi;
+                const double t = std::atan(std::tan(th) / alpha) / (kPi / 2);
+                const int i = std::clamp(int(t * kTheta), 0, kTheta - 1);
+                const int j = std::clamp(int(ph / (2.0 * kPi) * kPhi), 0, kPhi - 1);
+                observed[i * kPhi + j] += 1.0;
+            }
+            double chi2 = 0.0, pooled_e = 0.0, pooled_o = 0.0;
+            int bins = 0;
+            for (size_t k = 0; k < expected.size(); ++k) {
+                const double e = expected[k] * kSamples;
+                if (e < 5.0) {
+                    pooled_e += e;
+                    pooled_o += observed[k];
+                    continue;
+                }
+                chi2 += (observed[k] - e) * (observed[k] - e) / e;
+                ++bins;
+            }
+            if (pooled_e >= 5.0) {
+                chi2 += (pooled_o - pooled_e) * (pooled_o - pooled_e) / pooled_e;
+                ++bins;
+            } else {
+                EXPECT_LE(pooled_o, 20.0) << "samples where the pdf is (almost) zero";
+            }
+            ASSERT_GT(bins, 100);
+            const double limit = chi_square_quantile(bins - 1, kZUpper);
+            EXPECT_LT(chi2, limit) << "alpha " << alpha << " theta_o " << theta_o << ", " << bins << " bins";
+            std::printf("[vndf] alpha %.2f theta_o %.2f: chi2 %.1f over %d bins (limit %.1f)\n", alpha, theta_o,
+                        chi2, bins, limit);
+        }
     }
 }
 
