@@ -116,7 +116,7 @@ RenderSettings base_settings(const Options& o, int bounces) {
     rs.seed = o.seed;
     rs.threads = o.threads;
     rs.max_bounces = rs.diffuse_bounces = rs.glossy_bounces = rs.transmission_bounces = bounces;
-    rs.rr_min_bounces = 1 << 20;  // no Russian roulette: fixed path lengths
+    rs.rr_min_bounces = 1024;  // no Russian roulette (the table's largest value, above any bounce limit): fixed path lengths
     rs.packet_width = o.packet_w;
     rs.packet_height = o.packet_h;
     rs.packet_min_coherence = o.min_coherence;
