@@ -337,10 +337,12 @@ def test_sigint_cancels_without_writing(cli, cornell, tmp_path):
     assert proc.poll() is None, proc.communicate()
     proc.send_signal(signal.SIGINT)
     try:
-        stdout, stderr = proc.communicate(timeout=20)
+        # A hang guard, not a promptness threshold: the property is that
+        # SIGINT ends the render with exit 130 and no image.
+        stdout, stderr = proc.communicate(timeout=300)
     except subprocess.TimeoutExpired:
         proc.kill()
-        pytest.fail("render did not stop within 20 s of SIGINT")
+        pytest.fail("render hung after SIGINT")
     assert proc.returncode == 130, stderr
     assert stdout == ""
     assert one_line(stderr), stderr
