@@ -11,12 +11,25 @@
 
 #include <algorithm>
 #include <cstdint>
+#include <cstdlib>
+#include <string_view>
 
 #include "coherent_samplers.h"
 #include "sampler.h"
 #include "sampler_type.h"
 
 namespace coherent {
+
+// Owen-Sobol, unless the environment variable COHERENT_SAMPLE_SEQUENCE is
+// "white": a switch for comparisons (bench/sobol_sampling.py) that needs no
+// render setting, read once per process.
+inline SampleSequence default_sample_sequence() {
+    static const SampleSequence s = [] {
+        const char* v = std::getenv("COHERENT_SAMPLE_SEQUENCE");
+        return v && std::string_view(v) == "white" ? SampleSequence::WhiteNoise : SampleSequence::OwenSobol;
+    }();
+    return s;
+}
 
 struct SamplerConfig {
     SamplerType type = SamplerType::Spt;  // resolved: never Auto (Auto is treated as Spt)
@@ -27,6 +40,7 @@ struct SamplerConfig {
     int packet_width = 4, packet_height = 4;
     SequenceScope scope = SequenceScope::Packet;
     uint32_t dims = PathDims::count(12);  // dimensions worth tabulating
+    SampleSequence sequence = default_sample_sequence();
 };
 
 class ImageSampler {
@@ -35,10 +49,11 @@ public:
     // samples are still drawn correctly, from the hash.
     ImageSampler(const SamplerConfig& c, uint32_t sample_begin, uint32_t sample_count)
         : type_(c.type == SamplerType::Auto ? SamplerType::Spt : c.type),
-          spt_(c.seed),
+          spt_(c.seed, c.sequence),
           cpt_(c.seed, c.dims, sample_begin, type_ == SamplerType::Cpt ? sample_count : 0, c.scope,
-               uint32_t(std::max(c.packet_width, 1)), uint32_t(std::max(c.packet_height, 1))),
-          icpt_(c.seed, icpt_block(c), c.dims, sample_begin, type_ == SamplerType::Icpt ? sample_count : 0, c.scope) {}
+               uint32_t(std::max(c.packet_width, 1)), uint32_t(std::max(c.packet_height, 1)), c.sequence),
+          icpt_(c.seed, icpt_block(c), c.dims, sample_begin, type_ == SamplerType::Icpt ? sample_count : 0, c.scope,
+                c.sequence) {}
 
     SampleStream stream(uint32_t px, uint32_t py, uint32_t sample) const {
         switch (type_) {
