@@ -38,7 +38,6 @@ IcptSampler::IcptSampler(uint64_t seed, uint32_t n, uint32_t dims, uint32_t samp
                          SequenceScope scope, SampleSequence sequence)
     : n_(std::clamp<uint32_t>(n, 1, LatinSquares::kMaxOrder)),
       scope_(scope),
-      sequence_(sequence),
       squares_(&latin_squares(n_)),
       partition_key_(mix64(seed ^ kPartitionSalt)),
       table_(mix64(seed ^ kIcptSalt), n_, dims, sample_begin, scope == SequenceScope::Image ? sample_count : 0,

@@ -11,11 +11,16 @@
 // and dimensions or samples outside it get the identical value.
 // Sobol and the three samplers: SPT scrambles per pixel; CPT's packet shares
 // one scrambled sequence, so every pixel of it still gets a low-discrepancy
-// set over its samples; ICPT's subset j of a region reads sequence j; a pixel
-// whose subset were re-drawn every sample would mix single points of n
-// sequences; so with Sobol, ICPT draws its squares per round of 2n samples
-// and rotates their labels, and each pixel reads every sequence's even and
-// odd scramble once per round (IcptSampler::subset).
+// set over its samples; ICPT's subset j of a region reads sequence j, so a
+// pixel (whose subset is re-drawn every sample) mixes points of n
+// sequences: stratified per sequence but not over its own samples, and its
+// error falls at white noise's rate. That is inherent: a pixel can follow one
+// stratified sequence only if the pixels it shares numbers with stay the same.
+// (Tried: squares per round of 2n samples with labels rotating, so each pixel
+// reads every sequence once per round: slope -0.93 instead of -0.51 on the
+// lit plane of test_sobol.cpp, but then every pixel of a region uses the same
+// 2n points per round, in another order, and neighbour error correlation
+// rises from 0.03 to 0.24 at 4 spp, towards CPT's at 8.)
 //
 // Where sequences are shared (SequenceScope, sampler_type.h):
 //  * Image, equation (3): CPT uses the same vector u_k for every pixel x_i of
@@ -32,8 +37,7 @@
 // ICPT: the image is cut into n x n blocks (n = 4 in the paper); for every
 // block and every sample, the block is partitioned into n Latin-hypercube
 // subsets (n-rooks: one pixel per row and per column, see latin_square.h),
-// re-randomised per block and per sample (Owen-Sobol: per round of 2n
-// samples, labels rotating within it), and subset j uses sequence u_{k,j}
+// re-randomised per block and per sample, and subset j uses sequence u_{k,j}
 // of the block's region. So a block holds n different sequences, and subset
 // j of the blocks of a region forms a coherent packet (the paper's 8 x 8
 // region = four packets of 16 rays, each from 4 subsets of 4 pixels).
@@ -133,32 +137,18 @@ public:
                          SampleSequence sequence = SampleSequence::OwenSobol);
 
     // Which of the n sequences pixel (px, py) uses in `sample`.
-    //  White noise: the block's square is re-drawn every sample.
-    //  Owen-Sobol: samples come in rounds of 2n. A round draws one square and
-    //  rotates its labels by one every second sample, so in a round every
-    //  pixel reads each of the n sequences once in an even and once in an
-    //  odd sample: at point `round` of the sequence's even and odd scramble
-    //  (stream() below). A pixel's samples are thus 2n stratified sets, not
-    //  scattered points of n sequences, and its even and odd halves stay
-    //  independent.
     uint32_t subset(uint32_t px, uint32_t py, uint32_t sample) const {
         const uint64_t block = (uint64_t(py / n_) << 32) | (px / n_);
-        const bool rounds = sequence_ == SampleSequence::OwenSobol;
-        const uint32_t draw = rounds ? sample / (2 * n_) : sample, turn = rounds ? sample % (2 * n_) / 2 : 0;
-        const uint64_t h = hash_combine(hash_combine(partition_key_, block), draw);
-        return (squares_->subset(h, py % n_, px % n_) + turn) % n_;
+        const uint64_t h = hash_combine(hash_combine(partition_key_, block), sample);
+        return squares_->subset(h, py % n_, px % n_);
     }
     // The region (2 x 2 blocks, or the image) whose subsets share sequences.
     uint64_t region(uint32_t px, uint32_t py) const {
         if (scope_ == SequenceScope::Image) return SequenceTable::kImageRegion;
         return (uint64_t(py / (2 * n_)) << 32) | (px / (2 * n_));
     }
-    // Owen-Sobol: point `round` of the sequence's even or odd scramble, which
-    // SampleStream reads for its sample 2 * round + parity.
     SampleStream stream(uint32_t px, uint32_t py, uint32_t sample) const {
-        const uint32_t index =
-            sequence_ == SampleSequence::OwenSobol ? 2 * (sample / (2 * n_)) + (sample & 1u) : sample;
-        return table_.stream(index, subset(px, py, sample), region(px, py));
+        return table_.stream(sample, subset(px, py, sample), region(px, py));
     }
     float get(uint32_t px, uint32_t py, uint32_t sample, uint32_t dim) const {
         return stream(px, py, sample).get(dim);
@@ -168,7 +158,6 @@ public:
 private:
     uint32_t n_;
     SequenceScope scope_;
-    SampleSequence sequence_;
     const LatinSquares* squares_;
     uint64_t partition_key_;
     SequenceTable table_;

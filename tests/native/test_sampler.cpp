@@ -195,7 +195,7 @@ TEST(Sampler, IcptPartitionIsRerandomisedPerBlockAndSampleUniformly) {
     // n = 4 has 24 set partitions into 4 Latin-hypercube subsets (576 squares
     // / 4! labelings). Drawn uniformly, each should appear ~1/24 of the time,
     // both across blocks of one sample and across samples of one block.
-    const IcptSampler s(11, 4, kDims, 0, 0, SequenceScope::Packet, SampleSequence::WhiteNoise);
+    const IcptSampler s(11, 4, kDims, 0, 0);
     std::map<std::vector<uint32_t>, int> across_blocks, across_samples;
     const int draws = 24000;
     for (int i = 0; i < draws; ++i) {
