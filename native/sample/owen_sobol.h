@@ -57,6 +57,9 @@ constexpr uint32_t reverse_bits32(uint32_t x) {
     x = ((x >> 1) & 0x55555555u) | ((x & 0x55555555u) << 1);
     x = ((x >> 2) & 0x33333333u) | ((x & 0x33333333u) << 2);
     x = ((x >> 4) & 0x0f0f0f0fu) | ((x & 0x0f0f0f0fu) << 4);
+#if defined(__GNUC__)
+    if (!__builtin_is_constant_evaluated()) return __builtin_bswap32(x);  // one instruction for the byte order
+#endif
     x = ((x >> 8) & 0x00ff00ffu) | ((x & 0x00ff00ffu) << 8);
     return (x >> 16) | (x << 16);
 }
@@ -89,6 +92,13 @@ inline uint32_t reversed_sobol(uint32_t reversed_index, uint32_t c) {
     const auto& t = kTables.rev[c];
     const uint32_t r = reversed_index;
     return t[0][r & 0xffu] ^ t[1][(r >> 8) & 0xffu] ^ t[2][(r >> 16) & 0xffu] ^ t[3][r >> 24];
+}
+
+// The same for indices below 2^24 (reversed: low byte zero), one load less.
+inline uint32_t reversed_sobol24(uint32_t reversed_index, uint32_t c) {
+    const auto& t = kTables.rev[c];
+    const uint32_t r = reversed_index;
+    return t[1][(r >> 8) & 0xffu] ^ t[2][(r >> 16) & 0xffu] ^ t[3][r >> 24];
 }
 
 }  // namespace owen_sobol_detail
@@ -134,18 +144,29 @@ inline uint32_t set_component_seed(uint32_t set_seed, uint32_t c) {
     return h ^ (h >> 13);
 }
 
-// Component c of sample `index` of the scrambled set with `set_seed`, as a
-// 32-bit fraction; takes the index bit-reversed (a stream reverses it once
-// for all its dimensions). Shuffle, Sobol and scramble all stay in the
-// reversed domain, so one reversal remains.
-inline uint32_t owen_sobol_reversed_index(uint32_t reversed_index, uint32_t c, uint32_t set_seed) {
-    using namespace owen_sobol_detail;
-    const uint32_t shuffled = owen_hash_reversed(reversed_index, set_component_seed(set_seed, kComponents));
-    return reverse_bits32(owen_hash_reversed(reversed_sobol(shuffled, c), set_component_seed(set_seed, c)));
+// The two steps of a set's point, split so that a stream shuffles the index
+// once for the set's four components. Indices are bit-reversed (a stream
+// reverses its index once for all sets): shuffle, Sobol and scramble all work
+// in the reversed domain, so one reversal remains per value.
+// Indices are below 2^24 (16.7 M points per sequence, twice
+// RenderSettings' largest spp as a stream takes every second sample): the
+// shuffle keeps the low 24 bits of the index, a scramble of [0, 2^24) that
+// still maps the first 2^m indices to an aligned block, and Sobol then needs
+// three byte tables, not four.
+inline uint32_t shuffle_reversed_index(uint32_t reversed_index, uint32_t set_seed) {
+    return owen_hash_reversed(reversed_index, set_component_seed(set_seed, owen_sobol_detail::kComponents)) &
+           0xffffff00u;
 }
 
+// Component c of the set's point at a shuffled reversed index, as a 32-bit fraction.
+inline uint32_t owen_sobol_shuffled(uint32_t shuffled_reversed_index, uint32_t c, uint32_t set_seed) {
+    return reverse_bits32(owen_hash_reversed(owen_sobol_detail::reversed_sobol24(shuffled_reversed_index, c),
+                                             set_component_seed(set_seed, c)));
+}
+
+// Component c of sample `index` of the scrambled set with `set_seed`.
 inline uint32_t owen_sobol_u32(uint32_t index, uint32_t c, uint32_t set_seed) {
-    return owen_sobol_reversed_index(reverse_bits32(index), c, set_seed);
+    return owen_sobol_shuffled(shuffle_reversed_index(reverse_bits32(index), set_seed), c, set_seed);
 }
 
 }  // namespace coherent

@@ -93,8 +93,11 @@ public:
         if (dim < tabulated_dims_) return row_[dim];
         if (!sobol_) return to_unit_float(hash_combine(key_, sample_word_ | dim));
         const SobolSlot slot = sobol_slot(dim);
-        const uint32_t set_seed = uint32_t(hash_combine(key_, slot.set) >> 32);
-        return float(owen_sobol_reversed_index(reversed_index_, slot.component, set_seed) >> 8) * 0x1p-24f;
+        // A path reads a set's components one after another: the set's four
+        // values are drawn together (independent chains the CPU overlaps)
+        // when the path first reads it.
+        if (slot.set != cached_set_) draw_set(slot.set);
+        return cached_values_[slot.component];
     }
 
     // The value stream(key, sample, sequence) gives for `dim`: [0, 1), never 1.0.
@@ -103,12 +106,23 @@ public:
     }
 
 private:
+    void draw_set(uint32_t set) const {
+        cached_set_ = set;
+        const uint32_t seed = uint32_t(key_ >> 32) ^ (set * 0x9e3779b9u);
+        const uint32_t shuffled = shuffle_reversed_index(reversed_index_, seed);
+        for (uint32_t c = 0; c < 4; ++c)
+            cached_values_[c] = float(owen_sobol_shuffled(shuffled, c, seed) >> 8) * 0x1p-24f;
+    }
+
     const float* row_;
     uint32_t tabulated_dims_;
     bool sobol_;
     uint32_t reversed_index_;  // Sobol: bit-reversed point index, sample / 2
     uint64_t key_;
     uint64_t sample_word_;  // white noise: sample << 32
+    // Sobol: the set last read and its four values.
+    mutable uint32_t cached_set_ = ~0u;
+    mutable float cached_values_[4] = {};
 };
 
 // SPT: an independent sequence per pixel (its own scrambles, keyed by the pixel).
