@@ -120,7 +120,8 @@ private:
     uint32_t reversed_index_;  // Sobol: bit-reversed point index, sample / 2
     uint64_t key_;
     uint64_t sample_word_;  // white noise: sample << 32
-    // Sobol: the set last read and its four values.
+    // Sobol: the set last read and its four values. A stream belongs to one
+    // path, read by one thread at a time, so get() may fill this cache.
     mutable uint32_t cached_set_ = ~0u;
     mutable float cached_values_[4] = {};
 };
