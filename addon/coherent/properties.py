@@ -28,6 +28,7 @@ TABLE_PROPERTIES = {
     "time_limit": ("time_limit", dict(unit="TIME_ABSOLUTE", subtype="TIME_ABSOLUTE")),
     "seed": ("seed", {}),
     "sampler": ("sampler", dict(default="AUTO")),
+    "pattern": ("pattern", {}),
     "packet_size": ("packet", {}),
     "use_adaptive_sampling": ("adaptive", {}),
     "adaptive_threshold": ("adaptive_threshold", dict(step=0.1, precision=4)),

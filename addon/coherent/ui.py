@@ -63,6 +63,7 @@ class RENDER_PT_coherent_sampling(CoherentButtonsPanel, bpy.types.Panel):
         row.prop(props, "use_animated_seed", text="", icon="TIME")
         col = layout.column()
         col.prop(props, "sampler")
+        col.prop(props, "pattern")
         sub = col.column()
         sub.active = props.sampler != "SPT"  # CPT/ICPT share sequences per packet
         sub.prop(props, "packet_size")

@@ -241,6 +241,7 @@ SamplerConfig sampler_config(const RenderSettings& rs) {
     c.packet_height = rs.packet_height;
     c.scope = rs.sequence_scope;
     c.dims = PathDims::count(rs.max_bounces);
+    c.sequence = rs.pattern;
     return c;
 }
 

@@ -133,6 +133,14 @@ std::vector<SettingSpec> sampling_rows() {
          {SequenceScope::Image, {"image", "Per Image", "One sequence per sample for the whole image (its "
                                                        "equation 3)"}}},
         "CPT and ICPT: over which pixels sequences are shared"));
+    t.push_back(choice<SampleSequence>(
+        "pattern", "Pattern", "Sampling", &RenderSettings::pattern,
+        {{SampleSequence::WhiteNoise, {"white", "White Noise", "A counter-based hash per pixel, sample and "
+                                                               "dimension"}},
+         {SampleSequence::OwenSobol, {"sobol", "Owen-Scrambled Sobol", "Padded Sobol points, Owen-scrambled per "
+                                                                       "pixel (SPT), packet (CPT) or subset (ICPT): "
+                                                                       "error falls faster on smooth lighting"}}},
+        "the random numbers behind every sampler"));
     t.push_back(flag("progressive_display", "Progressive Display", "Sampling", &RenderSettings::progressive_display,
                      "a front end shows sample passes as they finish (the viewport); makes the Auto sampler pick "
                      "ICPT"));

@@ -27,6 +27,7 @@ struct SamplerConfig {
     int packet_width = 4, packet_height = 4;
     SequenceScope scope = SequenceScope::Packet;
     uint32_t dims = PathDims::count(12);  // dimensions worth tabulating
+    SampleSequence sequence = SampleSequence::WhiteNoise;  // RenderSettings::pattern
 };
 
 class ImageSampler {
@@ -35,10 +36,11 @@ public:
     // samples are still drawn correctly, from the hash.
     ImageSampler(const SamplerConfig& c, uint32_t sample_begin, uint32_t sample_count)
         : type_(c.type == SamplerType::Auto ? SamplerType::Spt : c.type),
-          spt_(c.seed),
+          spt_(c.seed, c.sequence),
           cpt_(c.seed, c.dims, sample_begin, type_ == SamplerType::Cpt ? sample_count : 0, c.scope,
-               uint32_t(std::max(c.packet_width, 1)), uint32_t(std::max(c.packet_height, 1))),
-          icpt_(c.seed, icpt_block(c), c.dims, sample_begin, type_ == SamplerType::Icpt ? sample_count : 0, c.scope) {}
+               uint32_t(std::max(c.packet_width, 1)), uint32_t(std::max(c.packet_height, 1)), c.sequence),
+          icpt_(c.seed, icpt_block(c), c.dims, sample_begin, type_ == SamplerType::Icpt ? sample_count : 0, c.scope,
+                c.sequence) {}
 
     SampleStream stream(uint32_t px, uint32_t py, uint32_t sample) const {
         switch (type_) {

@@ -21,66 +21,10 @@
 #include <cstdint>
 
 #include "../core/random.h"
+#include "owen_sobol.h"
+#include "sampler_type.h"
 
 namespace coherent {
-
-// The numbers of one (pixel, sample): dimensions below `tabulated_dims` come
-// from a precomputed row, the rest from a counter-based hash of (key, sample,
-// dim). Samplers fill tables with that same hash, so both give equal values.
-class SampleStream {
-public:
-    SampleStream(uint64_t key, uint32_t sample, const float* row = nullptr, uint32_t tabulated_dims = 0)
-        : row_(row), tabulated_dims_(row ? tabulated_dims : 0), key_(key), sample_word_(uint64_t(sample) << 32) {}
-
-    float get(uint32_t dim) const {
-        return dim < tabulated_dims_ ? row_[dim] : to_unit_float(hash_combine(key_, sample_word_ | dim));
-    }
-
-    // The counter-based draw behind every sampler: [0, 1), never 1.0.
-    static float hashed(uint64_t key, uint32_t sample, uint32_t dim) {
-        return to_unit_float(hash_combine(key, (uint64_t(sample) << 32) | dim));
-    }
-
-private:
-    const float* row_;
-    uint32_t tabulated_dims_;
-    uint64_t key_;
-    uint64_t sample_word_;
-};
-
-// SPT: an independent random sequence per pixel, drawn from a counter-based hash.
-class SptSampler {
-public:
-    explicit SptSampler(uint64_t seed = 0) : seed_key_(mix64(seed ^ 0x5bd1e9955bd1e995ull)) {}
-
-    SampleStream stream(uint32_t px, uint32_t py, uint32_t sample) const {
-        const uint64_t pixel = (uint64_t(py) << 32) | px;
-        return SampleStream(hash_combine(seed_key_, pixel), sample);
-    }
-    float get(uint32_t px, uint32_t py, uint32_t sample, uint32_t dim) const {
-        return stream(px, py, sample).get(dim);
-    }
-
-private:
-    uint64_t seed_key_;
-};
-
-// The stream of numbers one path consumes. Dimensions are assigned in a fixed
-// layout (see PathDims) so the same (pixel, sample) always uses the same
-// dimension for the same decision, which keeps samplers with structure
-// (stratified, Latin hypercube) effective and makes CPT's shared sequence
-// drive the same decision in every pixel: rays of a packet that are at the
-// same bounce consumed the same numbers for it.
-class ImageSampler;
-class PathSampler {
-public:
-    // Defined in image_sampler.h, the one sampler a render uses.
-    PathSampler(const ImageSampler& s, uint32_t px, uint32_t py, uint32_t sample);
-    float get(uint32_t dim) const { return stream_.get(dim); }
-
-private:
-    SampleStream stream_;
-};
 
 // Fixed dimension layout of a path sample. Each bounce owns a fixed block of
 // kPerBounce dimensions whether or not it uses them (e.g. roulette before
@@ -103,5 +47,120 @@ struct PathDims {
         return kFirstBounce + uint32_t(max_bounces < 0 ? 0 : max_bounces + 1) * kPerBounce;
     }
 };
+
+// Where a dimension lives in the padded Owen-Sobol sequence (owen_sobol.h):
+// which 4D set and which of its components. Each 2D decision reads
+// components 0 and 1 of its own set (a (0,2)-sequence); 1D decisions take
+// components 2 and 3, each stratified on its own:
+//   set 0: pixel x, y          set 1: lens u, v
+//   set 2 + 2b: light u, v, light pick, spare (shutter time at b = 0)
+//   set 3 + 2b: bsdf u, v, bsdf lobe, roulette
+struct SobolSlot {
+    uint32_t set, component;
+};
+
+constexpr SobolSlot sobol_slot(uint32_t dim) {
+    if (dim < PathDims::kFirstBounce) return {dim >> 1, dim & 1u};
+    // Per bounce offset: {0 = light set / 1 = bsdf set, component}.
+    constexpr SobolSlot in_bounce[PathDims::kPerBounce] = {{0, 2}, {0, 0}, {0, 1}, {1, 2},
+                                                          {1, 0}, {1, 1}, {1, 3}, {0, 3}};
+    const uint32_t b = (dim - PathDims::kFirstBounce) / PathDims::kPerBounce;
+    const SobolSlot s = in_bounce[(dim - PathDims::kFirstBounce) % PathDims::kPerBounce];
+    return {2 + 2 * b + s.set, s.component};
+}
+
+// The numbers of one (pixel, sample): dimensions below `tabulated_dims` come
+// from a precomputed row, the rest are drawn from the stream's key:
+//   OwenSobol: sample k is point k/2 of one of two independently scrambled
+//     padded Sobol sequences (even k from one, odd k from the other). The
+//     film's error estimate compares the even and the odd half-images and
+//     needs them independent; the halves of one Sobol sequence are not (they
+//     are complementary strata), the points of two scrambles are.
+//   WhiteNoise: a counter-based hash of (key, sample, dim).
+// Samplers fill tables from the same function, so both give equal values.
+class SampleStream {
+public:
+    SampleStream(uint64_t key, uint32_t sample, SampleSequence sequence = SampleSequence::OwenSobol,
+                 const float* row = nullptr, uint32_t tabulated_dims = 0)
+        : row_(row),
+          tabulated_dims_(row ? tabulated_dims : 0),
+          sobol_(sequence == SampleSequence::OwenSobol),
+          reversed_index_(reverse_bits32(sample >> 1)),
+          key_(sobol_ ? hash_combine(key, 0x50b01000ull | (sample & 1u)) : key),
+          sample_word_(uint64_t(sample) << 32) {}
+
+    float get(uint32_t dim) const {
+        if (dim < tabulated_dims_) return row_[dim];
+        if (!sobol_) return to_unit_float(hash_combine(key_, sample_word_ | dim));
+        const SobolSlot slot = sobol_slot(dim);
+        // A path reads a set's components one after another: the set's four
+        // values are drawn together (independent chains the CPU overlaps)
+        // when the path first reads it.
+        if (slot.set != cached_set_) draw_set(slot.set);
+        return cached_values_[slot.component];
+    }
+
+    // The value stream(key, sample, sequence) gives for `dim`: [0, 1), never 1.0.
+    static float drawn(uint64_t key, uint32_t sample, uint32_t dim, SampleSequence sequence) {
+        return SampleStream(key, sample, sequence).get(dim);
+    }
+
+private:
+    void draw_set(uint32_t set) const {
+        cached_set_ = set;
+        const uint32_t seed = uint32_t(key_ >> 32) ^ (set * 0x9e3779b9u);
+        const uint32_t shuffled = shuffle_reversed_index(reversed_index_, seed);
+        for (uint32_t c = 0; c < 4; ++c)
+            cached_values_[c] = float(owen_sobol_shuffled(shuffled, c, seed) >> 8) * 0x1p-24f;
+    }
+
+    const float* row_;
+    uint32_t tabulated_dims_;
+    bool sobol_;
+    uint32_t reversed_index_;  // Sobol: bit-reversed point index, sample / 2
+    uint64_t key_;
+    uint64_t sample_word_;  // white noise: sample << 32
+    // Sobol: the set last read and its four values. A stream belongs to one
+    // path, read by one thread at a time, so get() may fill this cache.
+    mutable uint32_t cached_set_ = ~0u;
+    mutable float cached_values_[4] = {};
+};
+
+// SPT: an independent sequence per pixel (its own scrambles, keyed by the pixel).
+class SptSampler {
+public:
+    explicit SptSampler(uint64_t seed = 0, SampleSequence sequence = SampleSequence::OwenSobol)
+        : seed_key_(mix64(seed ^ 0x5bd1e9955bd1e995ull)), sequence_(sequence) {}
+
+    SampleStream stream(uint32_t px, uint32_t py, uint32_t sample) const {
+        const uint64_t pixel = (uint64_t(py) << 32) | px;
+        return SampleStream(hash_combine(seed_key_, pixel), sample, sequence_);
+    }
+    float get(uint32_t px, uint32_t py, uint32_t sample, uint32_t dim) const {
+        return stream(px, py, sample).get(dim);
+    }
+
+private:
+    uint64_t seed_key_;
+    SampleSequence sequence_;
+};
+
+// The stream of numbers one path consumes. Dimensions are assigned in a fixed
+// layout (see PathDims) so the same (pixel, sample) always uses the same
+// dimension for the same decision, which keeps samplers with structure
+// (stratified, Latin hypercube) effective and makes CPT's shared sequence
+// drive the same decision in every pixel: rays of a packet that are at the
+// same bounce consumed the same numbers for it.
+class ImageSampler;
+class PathSampler {
+public:
+    // Defined in image_sampler.h, the one sampler a render uses.
+    PathSampler(const ImageSampler& s, uint32_t px, uint32_t py, uint32_t sample);
+    float get(uint32_t dim) const { return stream_.get(dim); }
+
+private:
+    SampleStream stream_;
+};
+
 
 }  // namespace coherent

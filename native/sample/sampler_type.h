@@ -19,6 +19,14 @@ namespace coherent {
 //   Auto: resolved by resolve_sampler_type() below.
 enum class SamplerType : uint8_t { Spt, Cpt, Icpt, Auto };
 
+// What a sampler's sequences are made of (sampler.h, SampleStream): padded
+// Owen-scrambled Sobol points (error falls faster than 1/sqrt(spp) on smooth
+// integrands, docs/results/sobol_sampling.md) or white noise from a
+// counter-based hash. A render picks one with RenderSettings::pattern;
+// white noise is the render default until adaptive sampling's stopping rule
+// is unbiased with Sobol's lower per-pixel error (see sobol_sampling.md).
+enum class SampleSequence : uint8_t { OwenSobol, WhiteNoise };
+
 // Below this many samples per pixel a final render picks ICPT over CPT. A
 // judgement call from the paper's Fig. 2 and docs/results/sampler_rmse.md:
 // CPT's error is as large as SPT's at every sample count but structured
