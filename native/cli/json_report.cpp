@@ -31,10 +31,9 @@ nlohmann::ordered_json bounce_json(int index, const BounceStats& b) {
     return j;
 }
 
-// Every settings-table row as rendered: Auto sampler and traversal resolved.
-nlohmann::ordered_json settings_json(const RenderSettings& rendered) {
-    RenderSettings s = rendered;
-    s.sampler = s.resolved_sampler();
+// Every settings-table row as the Renderer resolved them (sampler and
+// traversal never Auto).
+nlohmann::ordered_json settings_json(const RenderSettings& s) {
     nlohmann::ordered_json j = nlohmann::ordered_json::object();
     for (const SettingSpec& spec : setting_table())
         std::visit([&](const auto& v) { j[spec.name] = v; }, spec.get(s));

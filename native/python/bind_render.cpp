@@ -62,9 +62,7 @@ py::dict bounce_dict(int index, const BounceStats& b) {
 // The settings as the Renderer resolved them (sampler and traversal never
 // Auto), by the table's names, plus whether the BVH Visits heatmap counts
 // per path.
-py::dict settings_dict(const RenderSettings& rendered) {
-    RenderSettings s = rendered;
-    s.sampler = s.resolved_sampler();
+py::dict settings_dict(const RenderSettings& s) {
     py::dict d = settings_to_python(s);
     d["counts_path_visits"] = traversal_counts_path_visits(s.traversal);
     return d;
@@ -92,8 +90,7 @@ public:
             throw;
         }
         scene_->bvh = renderer_->shared_bvh();
-        settings_ = settings;
-        settings_.traversal = renderer_->settings().traversal;  // auto resolved
+        settings_ = renderer_->settings();  // as resolved: sampler and traversal never Auto
     }
 
     ~PyRenderer() {

@@ -292,6 +292,7 @@ Renderer::Renderer(const Scene& scene, const RenderSettings& settings, std::shar
     features_ = settings_.force_all_features ? SceneFeatures::all() : scene_.features;
     auto_traversal_ = settings_.traversal == Traversal::Auto;
     settings_.traversal = settings_.resolved_traversal();  // never Auto from here on
+    settings_.sampler = settings_.resolved_sampler();      // likewise (resolution is idempotent)
     if (settings_.border_x1 < 0) settings_.border_x1 = settings_.width;
     if (settings_.border_y1 < 0) settings_.border_y1 = settings_.height;
     if (!bvh) {  // the usual case: build over the scene's triangles
