@@ -334,11 +334,7 @@ inline StreamOptions tile_stream_options() {
 }
 
 inline void book_stream_work(RenderStats& st, int bounce, const StreamStats& ss) {
-    TraversalCounters c;
-    c.node_visits = ss.node_visits;
-    c.box_tests = ss.box_tests;
-    c.triangle_tests = ss.triangle_tests;
-    book_work(st, bounce, c);
+    book_work(st, bounce, work_of(ss));
 }
 
 // The live paths' extension rays as one stream, then their shading.

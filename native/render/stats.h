@@ -106,13 +106,20 @@ inline void book_work(RenderStats& st, int bounce, const TraversalCounters& c) {
     b.triangle_tests += c.triangle_tests;
 }
 
+// The node visits, box and triangle tests of any kernel's counters
+// (PacketCounters, StreamStats) as TraversalCounters.
+template <class Counters>
+TraversalCounters work_of(const Counters& k) {
+    TraversalCounters c;
+    c.node_visits = k.node_visits;
+    c.box_tests = k.box_tests;
+    c.triangle_tests = k.triangle_tests;
+    return c;
+}
+
 // A packet's work, with its SIMD lanes.
 inline void book_work(RenderStats& st, int bounce, const PacketCounters& pc) {
-    TraversalCounters c;
-    c.node_visits = pc.node_visits;
-    c.box_tests = pc.box_tests;
-    c.triangle_tests = pc.triangle_tests;
-    book_work(st, bounce, c);
+    book_work(st, bounce, work_of(pc));
     BounceStats& b = bounce_stats(st, bounce);
     b.box_lanes += pc.box_lanes;
     b.box_lanes_active += pc.box_lanes_active;
