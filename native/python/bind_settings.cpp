@@ -29,12 +29,8 @@ const char* type_name(SettingType t) {
                          std::string(py::repr(obj)));
 }
 
-// Integers: Python ints and anything with __index__ (numpy integers), but
-// not bools, which Python counts as ints.
-bool is_integer(const py::handle& obj) { return PyIndex_Check(obj.ptr()) && !PyBool_Check(obj.ptr()); }
-
 int64_t to_int64(const SettingSpec& spec, const py::handle& obj) {
-    if (!is_integer(obj)) wrong_type(spec, obj);
+    if (!is_python_integer(obj)) wrong_type(spec, obj);
     const py::int_ i = py::reinterpret_steal<py::int_>(PyNumber_Index(obj.ptr()));
     int overflow = 0;
     const long long v = PyLong_AsLongLongAndOverflow(i.ptr(), &overflow);
@@ -50,7 +46,7 @@ SettingValue to_value(const SettingSpec& spec, const py::handle& obj) {
             return obj.cast<bool>();
         case SettingType::Int: return to_int64(spec, obj);
         case SettingType::Seed: {
-            if (!is_integer(obj)) wrong_type(spec, obj);
+            if (!is_python_integer(obj)) wrong_type(spec, obj);
             const py::int_ i = py::reinterpret_steal<py::int_>(PyNumber_Index(obj.ptr()));
             const unsigned long long v = PyLong_AsUnsignedLongLong(i.ptr());
             if (PyErr_Occurred()) {
@@ -61,9 +57,7 @@ SettingValue to_value(const SettingSpec& spec, const py::handle& obj) {
             return uint64_t(v);
         }
         case SettingType::Real:
-            if (PyBool_Check(obj.ptr()) || !(PyFloat_Check(obj.ptr()) || is_integer(obj) ||
-                                             py::hasattr(obj, "__float__")))
-                wrong_type(spec, obj);
+            if (!is_python_number(obj)) wrong_type(spec, obj);
             return py::float_(py::reinterpret_borrow<py::object>(obj)).cast<double>();
         case SettingType::Choice:
             if (!py::isinstance<py::str>(obj)) wrong_type(spec, obj);

@@ -55,6 +55,12 @@ void bind_render(py::module_& m);
 // Reads a length-3 float sequence (tuple, list, numpy array). Raises
 // ValueError naming `arg` if it has the wrong length or a non-finite entry.
 Vec3f to_vec3(const py::handle& obj, const char* arg);
+// Python floats and ints, numpy scalars and anything with __float__; not
+// bools or strings, which Python would happily convert.
+bool is_python_number(const py::handle& obj);
+// Python ints and anything with __index__ (numpy integers); not bools,
+// which Python counts as ints.
+bool is_python_integer(const py::handle& obj);
 // A Python number (not a bool or a string) as a double; TypeError naming `arg` otherwise.
 double number_arg(const py::handle& obj, const std::string& arg);
 // A Python integer (or numpy integer; not a bool); TypeError naming `arg` otherwise.

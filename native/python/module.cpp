@@ -17,18 +17,22 @@ float finite_float(double v, const char* arg) {
     return f;
 }
 
+bool is_python_number(const py::handle& obj) {
+    return !PyBool_Check(obj.ptr()) && !py::isinstance<py::str>(obj) && PyNumber_Check(obj.ptr()) &&
+           py::hasattr(obj, "__float__");
+}
+
+bool is_python_integer(const py::handle& obj) { return PyIndex_Check(obj.ptr()) && !PyBool_Check(obj.ptr()); }
+
 double number_arg(const py::handle& obj, const std::string& arg) {
-    // Python floats and ints, numpy scalars and anything with __float__; not
-    // bools or strings, which Python would happily convert.
-    if (PyBool_Check(obj.ptr()) || py::isinstance<py::str>(obj) || !PyNumber_Check(obj.ptr()) ||
-        !py::hasattr(obj, "__float__"))
+    if (!is_python_number(obj))
         throw py::type_error(arg + ": expected a number, got " +
                              std::string(py::str(py::type::of(obj).attr("__name__"))));
     return py::float_(py::reinterpret_borrow<py::object>(obj)).cast<double>();
 }
 
 long long integer_arg(const py::handle& obj, const std::string& arg) {
-    if (PyBool_Check(obj.ptr()) || !PyIndex_Check(obj.ptr()))
+    if (!is_python_integer(obj))
         throw py::type_error(arg + ": expected an integer, got " +
                              std::string(py::str(py::type::of(obj).attr("__name__"))));
     return py::int_(py::reinterpret_borrow<py::object>(obj)).cast<long long>();
