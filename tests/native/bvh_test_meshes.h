@@ -191,4 +191,20 @@ inline std::vector<Ray> random_rays(size_t n, uint32_t seed, float extent) {
     return rays;
 }
 
+// Rays from a sphere around box `b` toward random points inside it: most
+// hit what the box holds, from every side.
+inline std::vector<Ray> rays_into_box(const BBox& b, size_t n, uint32_t seed) {
+    std::mt19937 rng(seed);
+    std::uniform_real_distribution<float> unit(0.0f, 1.0f);
+    const Vec3f c = b.center();
+    const float r = length(b.extent());
+    std::vector<Ray> rays(n);
+    for (Ray& ray : rays) {
+        ray.o = c + random_unit(rng) * r;
+        const float x = unit(rng), y = unit(rng), z = unit(rng);
+        ray.d = b.lo + b.extent() * Vec3f(x, y, z) - ray.o;
+    }
+    return rays;
+}
+
 }  // namespace coherent::testing_meshes

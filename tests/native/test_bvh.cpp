@@ -528,19 +528,11 @@ TEST(BvhScene, GeneratedCornellBoxMatchesBruteForce) {
     EXPECT_EQ(prims.size(), scene.vertices.size() / 3);
     check_structure(bvh, scene.vertices, {});
 
-    // Rays from a sphere around the model toward random points of its box.
-    const BBox b = scene.bounds();
-    const Vec3f c = b.center();
-    const float r = length(b.extent());
-    std::mt19937 rng(2024);
-    std::uniform_real_distribution<float> unit(0.0f, 1.0f);
-    size_t hits = 0;
     const int n = 400;
+    const std::vector<Ray> rays = rays_into_box(scene.bounds(), n, 2024);
+    size_t hits = 0;
     for (int i = 0; i < n; ++i) {
-        Ray ray;
-        ray.o = c + random_unit(rng) * r;
-        const Vec3f target = b.lo + b.extent() * Vec3f(unit(rng), unit(rng), unit(rng));
-        ray.d = target - ray.o;
+        const Ray& ray = rays[size_t(i)];
         const Hit expected = brute_force_closest(scene.vertices, ray);
         Hit got;
         ASSERT_EQ(bvh.intersect(ray, got), expected.valid()) << i;
