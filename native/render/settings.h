@@ -27,15 +27,18 @@ struct RenderSettings {
     int threads = 0;                    // 0 = all cores
 
     // Adaptive sampling (off by default). After every even pass count
-    // >= adaptive_min_samples, a pixel stops receiving samples once its
-    // relative error, Film::pixel_error() / max(mean of its RGB,
-    // kAdaptiveLuminanceFloor), is <= adaptive_threshold for it AND for every
-    // pixel of its 3x3 neighbourhood (within the border). Converged pixels
-    // keep their samples (the film normalises each pixel by its own count)
-    // and never resume. Decisions only at even pass counts keep the even and
-    // odd halves balanced; the neighbourhood rule keeps a pixel from stopping
-    // on a lucky run of its own samples. Not exactly unbiased (no stopping
-    // rule on the samples themselves is), measured in tests/native/test_adaptive.cpp.
+    // >= adaptive_min_samples, a pixel stops receiving samples once the
+    // relative error it would have at its own count, judged from the pixels
+    // just around it (Renderer::update_convergence: their half-buffer errors
+    // scaled to its count, over their mean radiance floored at
+    // kAdaptiveLuminanceFloor), is <= adaptive_threshold. The pixel's own
+    // samples, and those of pixels that share its random numbers (a CPT
+    // packet), are left out of the decision: a stop that reads them selects
+    // lucky runs, biasing both the image and its error estimate. Converged
+    // pixels keep their samples (the film normalises each pixel by its own
+    // count) and never resume. Decisions only at even pass counts keep the
+    // even and odd halves balanced. Unbiasedness and the calibration of the
+    // error estimate are measured in tests/native/test_adaptive.cpp.
     bool adaptive = false;
     double adaptive_threshold = 0.01;
     int adaptive_min_samples = 16;      // rounded up to an even number, at least 2
@@ -69,11 +72,9 @@ struct RenderSettings {
     // CPT/ICPT sequences shared per packet (paper Fig. 3) or over the whole
     // image (paper eq. 3); see SequenceScope in sample/sampler_type.h.
     SequenceScope sequence_scope = SequenceScope::Packet;
-    // The numbers behind every sampler: white noise, or padded Owen-scrambled
-    // Sobol (sample/owen_sobol.h; 1.4-2.9x the efficiency of white noise for
-    // SPT and CPT at 16-256 spp, docs/results/sobol_sampling.md). Not yet
-    // the default: with its lower per-pixel error, adaptive sampling's
-    // relative-error stopping rule shows a measurable bias.
+    // The numbers behind every sampler: padded Owen-scrambled Sobol
+    // (sample/owen_sobol.h; 1.4-2.9x the efficiency of white noise for SPT
+    // and CPT at 16-256 spp, docs/results/sobol_sampling.md), or white noise.
     SampleSequence pattern = SampleSequence::WhiteNoise;
     bool progressive_display = false;   // a front end shows passes as they finish
 
