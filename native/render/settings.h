@@ -75,7 +75,7 @@ struct RenderSettings {
     // The numbers behind every sampler: padded Owen-scrambled Sobol
     // (sample/owen_sobol.h; 1.4-2.9x the efficiency of white noise for SPT
     // and CPT at 16-256 spp, docs/results/sobol_sampling.md), or white noise.
-    SampleSequence pattern = SampleSequence::WhiteNoise;
+    SampleSequence pattern = SampleSequence::OwenSobol;
     bool progressive_display = false;   // a front end shows passes as they finish
 
     // Light transport and tracing (render_modes.h).

@@ -22,9 +22,8 @@ enum class SamplerType : uint8_t { Spt, Cpt, Icpt, Auto };
 // What a sampler's sequences are made of (sampler.h, SampleStream): padded
 // Owen-scrambled Sobol points (error falls faster than 1/sqrt(spp) on smooth
 // integrands, docs/results/sobol_sampling.md) or white noise from a
-// counter-based hash. A render picks one with RenderSettings::pattern;
-// white noise is the render default until adaptive sampling's stopping rule
-// is unbiased with Sobol's lower per-pixel error (see sobol_sampling.md).
+// counter-based hash. A render picks one with RenderSettings::pattern
+// (Sobol by default).
 enum class SampleSequence : uint8_t { OwenSobol, WhiteNoise };
 
 // Below this many samples per pixel a final render picks ICPT over CPT. A
