@@ -94,8 +94,9 @@ std::vector<SettingSpec> sampling_rows() {
     seed.set = [](RenderSettings& r, const SettingValue& v) { r.seed = std::get<uint64_t>(v); };
     t.push_back(std::move(seed));
     t.push_back(flag("adaptive", "Adaptive Sampling", "Sampling", &RenderSettings::adaptive,
-                     "adaptive sampling: after adaptive_min_samples passes, pixels whose estimated relative error "
-                     "(and their 3x3 neighbours') is below adaptive_threshold stop taking samples"));
+                     "adaptive sampling: after adaptive_min_samples passes, a pixel stops taking samples once the "
+                     "relative error its neighbours' samples predict for it is below adaptive_threshold (its own "
+                     "samples stay out of the decision, which keeps the image unbiased)"));
     t.push_back(real("adaptive_threshold", "Noise Threshold", "Sampling", &RenderSettings::adaptive_threshold, 1e-4,
                      1.0, 0.1,
                      "relative per-pixel error (estimated from the even and odd sample passes) at which adaptive "
