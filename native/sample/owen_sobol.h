@@ -23,6 +23,10 @@
 #include <array>
 #include <cstdint>
 
+#if defined(__SSE4_1__)
+#include <immintrin.h>
+#endif
+
 namespace coherent {
 
 namespace owen_sobol_detail {
@@ -66,9 +70,11 @@ constexpr uint32_t reverse_bits32(uint32_t x) {
 
 // The matrix-vector product over GF(2) a byte at a time, in the bit-reversed
 // domain where Owen scrambling works: for r = reverse(index),
-// reverse(sobol(index)) = XOR over bytes j of rev[c][j][byte j of r].
+// reverse(sobol(index)) = XOR over bytes j of rev[j][byte j of r][c].
+// The four components of one byte sit side by side, so one 16-byte load
+// serves a whole set (owen_sobol_set4).
 struct ByteTables {
-    uint32_t rev[kComponents][4][256];
+    alignas(16) uint32_t rev[4][256][kComponents];
 };
 
 constexpr ByteTables make_byte_tables() {
@@ -81,7 +87,7 @@ constexpr ByteTables make_byte_tables() {
                 uint32_t r = 0;
                 for (uint32_t b = 0; b < 32; ++b)
                     if ((index >> b) & 1u) r ^= cols[c][b];
-                t.rev[c][j][x] = reverse_bits32(r);
+                t.rev[j][x][c] = reverse_bits32(r);
             }
     return t;
 }
@@ -89,17 +95,19 @@ constexpr ByteTables make_byte_tables() {
 inline constexpr ByteTables kTables = make_byte_tables();
 
 inline uint32_t reversed_sobol(uint32_t reversed_index, uint32_t c) {
-    const auto& t = kTables.rev[c];
+    const auto& t = kTables.rev;
     const uint32_t r = reversed_index;
-    return t[0][r & 0xffu] ^ t[1][(r >> 8) & 0xffu] ^ t[2][(r >> 16) & 0xffu] ^ t[3][r >> 24];
+    return t[0][r & 0xffu][c] ^ t[1][(r >> 8) & 0xffu][c] ^ t[2][(r >> 16) & 0xffu][c] ^ t[3][r >> 24][c];
 }
 
 // The same for indices below 2^24 (reversed: low byte zero), one load less.
 inline uint32_t reversed_sobol24(uint32_t reversed_index, uint32_t c) {
-    const auto& t = kTables.rev[c];
+    const auto& t = kTables.rev;
     const uint32_t r = reversed_index;
-    return t[1][(r >> 8) & 0xffu] ^ t[2][(r >> 16) & 0xffu] ^ t[3][r >> 24];
+    return t[1][(r >> 8) & 0xffu][c] ^ t[2][(r >> 16) & 0xffu][c] ^ t[3][r >> 24][c];
 }
+
+constexpr uint32_t kSeedSalts[kComponents + 1] = {0x39d8bdd3u, 0x3a8f2c6cu, 0x9fb4b3c1u, 0x2c1d9b43u, 0xc2c1a055u};
 
 }  // namespace owen_sobol_detail
 
@@ -136,9 +144,7 @@ inline uint32_t shuffle_index(uint32_t index, uint32_t seed) { return owen_scram
 
 // Seeds of a set's index shuffle and of its four components.
 inline uint32_t set_component_seed(uint32_t set_seed, uint32_t c) {
-    constexpr uint32_t salts[owen_sobol_detail::kComponents + 1] = {0x39d8bdd3u, 0x3a8f2c6cu, 0x9fb4b3c1u,
-                                                                    0x2c1d9b43u, 0xc2c1a055u};
-    uint32_t h = (set_seed ^ salts[c]) * 0x9e3779b1u;
+    uint32_t h = (set_seed ^ owen_sobol_detail::kSeedSalts[c]) * 0x9e3779b1u;
     h ^= h >> 16;
     h *= 0x85ebca6bu;
     return h ^ (h >> 13);
@@ -162,6 +168,44 @@ inline uint32_t shuffle_reversed_index(uint32_t reversed_index, uint32_t set_see
 inline uint32_t owen_sobol_shuffled(uint32_t shuffled_reversed_index, uint32_t c, uint32_t set_seed) {
     return reverse_bits32(owen_hash_reversed(owen_sobol_detail::reversed_sobol24(shuffled_reversed_index, c),
                                              set_component_seed(set_seed, c)));
+}
+
+// All four components of the set's point at a shuffled reversed index, as
+// floats in [0, 1): float(owen_sobol_shuffled(.., c, ..) >> 8) * 2^-24 for
+// c = 0..3, bit for bit. A path reads every component of the sets it
+// touches, and drawing them in four SSE lanes (one table load per byte, the
+// hashes and the bit reversal lane-parallel) costs about what one component
+// costs in scalar code.
+inline void owen_sobol_set4(uint32_t shuffled_reversed_index, uint32_t set_seed, float out[4]) {
+#if defined(__SSE4_1__)
+    const auto& t = owen_sobol_detail::kTables.rev;
+    const uint32_t r = shuffled_reversed_index;
+    auto row = [&](uint32_t j, uint32_t byte) { return _mm_load_si128(reinterpret_cast<const __m128i*>(t[j][byte])); };
+    __m128i x = _mm_xor_si128(_mm_xor_si128(row(1, (r >> 8) & 0xffu), row(2, (r >> 16) & 0xffu)), row(3, r >> 24));
+    // set_component_seed, lane c = component c.
+    const __m128i salts = _mm_loadu_si128(reinterpret_cast<const __m128i*>(owen_sobol_detail::kSeedSalts));
+    __m128i h = _mm_mullo_epi32(_mm_xor_si128(_mm_set1_epi32(int(set_seed)), salts), _mm_set1_epi32(int(0x9e3779b1u)));
+    h = _mm_xor_si128(h, _mm_srli_epi32(h, 16));
+    h = _mm_mullo_epi32(h, _mm_set1_epi32(int(0x85ebca6bu)));
+    const __m128i seed = _mm_xor_si128(h, _mm_srli_epi32(h, 13));
+    // owen_hash_reversed.
+    x = _mm_xor_si128(x, _mm_mullo_epi32(x, _mm_set1_epi32(0x3d20adea)));
+    x = _mm_add_epi32(x, seed);
+    x = _mm_mullo_epi32(x, _mm_or_si128(_mm_srli_epi32(seed, 16), _mm_set1_epi32(1)));
+    x = _mm_xor_si128(x, _mm_mullo_epi32(x, _mm_set1_epi32(0x05526c56)));
+    x = _mm_xor_si128(x, _mm_mullo_epi32(x, _mm_set1_epi32(0x53a22864)));
+    // reverse_bits32: bytes reversed within each lane, bits within each byte by nibble lookups.
+    x = _mm_shuffle_epi8(x, _mm_setr_epi8(3, 2, 1, 0, 7, 6, 5, 4, 11, 10, 9, 8, 15, 14, 13, 12));
+    const __m128i nibble_rev = _mm_setr_epi8(0, 8, 4, 12, 2, 10, 6, 14, 1, 9, 5, 13, 3, 11, 7, 15);
+    const __m128i low = _mm_set1_epi8(0x0f);
+    const __m128i lo = _mm_shuffle_epi8(nibble_rev, _mm_and_si128(x, low));
+    const __m128i hi = _mm_shuffle_epi8(nibble_rev, _mm_and_si128(_mm_srli_epi16(x, 4), low));
+    x = _mm_or_si128(_mm_slli_epi16(lo, 4), hi);
+    _mm_storeu_ps(out, _mm_mul_ps(_mm_cvtepi32_ps(_mm_srli_epi32(x, 8)), _mm_set1_ps(0x1p-24f)));
+#else
+    for (uint32_t c = 0; c < 4; ++c)
+        out[c] = float(owen_sobol_shuffled(shuffled_reversed_index, c, set_seed) >> 8) * 0x1p-24f;
+#endif
 }
 
 // Component c of sample `index` of the scrambled set with `set_seed`.

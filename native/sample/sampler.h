@@ -110,8 +110,7 @@ private:
         cached_set_ = set;
         const uint32_t seed = uint32_t(key_ >> 32) ^ (set * 0x9e3779b9u);
         const uint32_t shuffled = shuffle_reversed_index(reversed_index_, seed);
-        for (uint32_t c = 0; c < 4; ++c)
-            cached_values_[c] = float(owen_sobol_shuffled(shuffled, c, seed) >> 8) * 0x1p-24f;
+        owen_sobol_set4(shuffled, seed, cached_values_);
     }
 
     const float* row_;

@@ -54,6 +54,23 @@ TEST(Sobol, FirstComponentIsVanDerCorputAndMatricesAreKnown) {
     for (uint32_t i = 0; i < 6; ++i) EXPECT_EQ(sobol_u32(i, 1) * 0x1p-32, expect[i]) << i;
 }
 
+// The four-lane set draw that streams use is the scalar definition, bit for bit.
+TEST(Sobol, FourLaneSetDrawEqualsTheScalarComponents) {
+    uint32_t state = 12345u;
+    for (int k = 0; k < 20000; ++k) {
+        state = state * 1664525u + 1013904223u;
+        const uint32_t seed = state ^ (state >> 7) * 0x9e3779b9u;
+        state = state * 1664525u + 1013904223u;
+        const uint32_t index = (k < 64 ? uint32_t(k) : state) & 0xffffffu;
+        const uint32_t shuffled = shuffle_reversed_index(reverse_bits32(index), seed);
+        float lanes[4];
+        owen_sobol_set4(shuffled, seed, lanes);
+        for (uint32_t c = 0; c < 4; ++c)
+            ASSERT_EQ(lanes[c], float(owen_sobol_shuffled(shuffled, c, seed) >> 8) * 0x1p-24f)
+                << "index " << index << " seed " << seed << " component " << c;
+    }
+}
+
 // Whether the 2^m values (32-bit fractions) put one value in each [i/2^m, (i+1)/2^m).
 bool is_stratified_1d(const std::vector<uint32_t>& v, uint32_t m) {
     std::vector<int> count(size_t(1) << m, 0);
