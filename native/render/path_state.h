@@ -363,6 +363,8 @@ COHERENT_ALWAYS_INLINE void sample_next_ray(const PathContext& ctx, const PathSa
     if (is_black(s.throughput) || !is_finite(s.throughput)) return;
 
     count_bounce(*ctx.settings, s, bs);
+    // A last ray is traced only for the emission it may hit.
+    if (s.last_ray && !ctx.scene->features.hittable_emitters) return;
     s.prev_pdf = bs.delta ? 0.0f : bs.pdf;
     s.prev_n = sp.n;
     s.prev_transmissive = bsdf.transmissive();

@@ -32,6 +32,7 @@ SceneFeatures SceneFeatures::all() {
     f.emissive_meshes = f.point_lights = f.spot_lights = f.sun_lights = f.area_lights = true;
     f.diffuse = f.glossy = f.specular = f.glass = true;
     f.depth_of_field = f.world_light = f.motion_blur = true;
+    f.hittable_emitters = true;
     return f;
 }
 
@@ -65,11 +66,16 @@ SceneFeatures compute_features(const Scene& scene) {
             case LightType::Sun: f.sun_lights = true; break;
             case LightType::Area: f.area_lights = true; break;
         }
+        const bool delta = (l.type == LightType::Point || l.type == LightType::Spot) ? !(l.radius > 0.0f)
+                           : l.type == LightType::Sun                            ? !(l.sun_angle > 0.0f)
+                                                                                 : false;
+        if (!delta) f.hittable_emitters = true;
     }
 
     f.depth_of_field = scene.camera.aperture_radius > 0.0f;
     f.world_light = !is_black(scene.world_color);
     f.motion_blur = !scene.moving_triangles.empty();
+    f.hittable_emitters = f.hittable_emitters || f.emissive_meshes || f.world_light;
     return f;
 }
 

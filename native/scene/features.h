@@ -22,6 +22,10 @@ struct SceneFeatures {
     bool depth_of_field = false;   // camera aperture > 0
     bool world_light = false;      // non-black world colour
     bool motion_blur = false;      // some triangle moves during the shutter
+    // Some emitter can be hit by a ray (emissive mesh, area light, point or
+    // spot light with a radius, sun with an angle, world). Without one, a
+    // path's last ray (traced only to collect emission) would find nothing.
+    bool hittable_emitters = false;
 
     bool any_light() const {
         return emissive_meshes || point_lights || spot_lights || sun_lights || area_lights || world_light;

@@ -150,6 +150,32 @@ TEST(RenderFeatures, RayTypesFollowSceneFeatures) {
     EXPECT_EQ(ds.rays[size_t(RayType::Shadow)], 0u);
     for (size_t i = 0; i < img.size(); i += 4) EXPECT_EQ(img[i], 0.0f);
 
+    // Direct light only (max bounces 0) from a point light of radius 0: the
+    // bounce ray of each camera hit could only collect emission, and nothing
+    // can be hit, so it is not traced. With a radius the light can be hit,
+    // and the same ray is traced for its MIS half.
+    RenderSettings direct = rs;
+    direct.max_bounces = 0;
+    RenderStats point_stats;
+    const auto point_img = render_combined(s, direct, &point_stats);
+    EXPECT_FALSE(s.features.hittable_emitters);
+    EXPECT_EQ(point_stats.total_rays(),
+              point_stats.rays[size_t(RayType::Camera)] + point_stats.rays[size_t(RayType::Shadow)]);
+    EXPECT_GT(point_stats.rays[size_t(RayType::Shadow)], 0u);
+    Scene soft = s;
+    soft.lights[0].radius = 0.1f;
+    soft.finalize();
+    EXPECT_TRUE(soft.features.hittable_emitters);
+    RenderStats soft_stats;
+    render_combined(soft, direct, &soft_stats);
+    EXPECT_GT(soft_stats.total_rays(),
+              soft_stats.rays[size_t(RayType::Camera)] + soft_stats.rays[size_t(RayType::Shadow)]);
+    // Not tracing it changes no pixel: the same render with every feature
+    // forced on traces it and must give the same image.
+    RenderSettings direct_all = direct;
+    direct_all.force_all_features = true;
+    EXPECT_EQ(render_combined(s, direct_all), point_img);
+
     // Forcing all features changes the work, not the expected image: the
     // all-features kernel counts the same camera rays.
     RenderSettings all = rs;
