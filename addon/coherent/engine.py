@@ -74,6 +74,28 @@ def tracing_summary(settings, stats):
     return text
 
 
+def _format_bytes(size):
+    for unit in ("B", "KiB", "MiB", "GiB"):
+        if size < 1024.0 or unit == "GiB":
+            return f"{size:.0f} {unit}" if unit == "B" else f"{size:.1f} {unit}"
+        size /= 1024.0
+
+
+def memory_summary(memory):
+    """One line with what the render held, e.g. "Coherent: memory: peak 412.3 MiB,
+    871,306 triangles at 224 bytes each (BVH 71.4 MiB, scene 114.3 MiB), film 224.0 KiB".
+
+    `memory` is Renderer.stats()["memory"]; the peak is the whole process's
+    (Blender's own memory included).
+    """
+    peak = memory.get("peak_rss_bytes")
+    text = f"Coherent: memory: peak {_format_bytes(peak) if peak else 'n/a'}, {memory['triangles']:,} triangles"
+    if memory.get("bytes_per_triangle") is not None:
+        text += f" at {memory['bytes_per_triangle']:.0f} bytes each"
+    return (text + f" (BVH {_format_bytes(memory['bvh_bytes'])}, scene {_format_bytes(memory['scene_bytes'])}), "
+                   f"film {_format_bytes(memory['film_bytes'])}")
+
+
 def _format_time(seconds):
     seconds = max(0.0, seconds)
     minutes, secs = divmod(int(round(seconds)), 60)
@@ -220,7 +242,9 @@ class CoherentRenderEngine(bpy.types.RenderEngine):
             self._fail(e)
 
     def _fail(self, error):
-        if isinstance(error, (ImportError, export.ExportError)):
+        # MemoryError: the native renderer's check before building (or a
+        # failed allocation) says what did not fit; Blender keeps working.
+        if isinstance(error, (ImportError, export.ExportError, MemoryError)):
             message = str(error)
         else:
             traceback.print_exc()
@@ -299,6 +323,9 @@ class CoherentRenderEngine(bpy.types.RenderEngine):
                    f"in {stats['seconds']:.2f} s")
         print(summary)
         self.report({"INFO"}, summary)
+        memory = memory_summary(stats["memory"])
+        print(memory)
+        self.report({"INFO"}, memory)
         tracing = tracing_summary(renderer.settings, stats)
         print(tracing)
         self.report({"INFO"}, tracing)
