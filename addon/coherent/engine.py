@@ -245,7 +245,8 @@ class CoherentRenderEngine(bpy.types.RenderEngine):
         # MemoryError: the native renderer's check before building (or a
         # failed allocation) says what did not fit; Blender keeps working.
         if isinstance(error, (ImportError, export.ExportError, MemoryError)):
-            message = str(error)
+            # A MemoryError from Python itself (e.g. numpy in the export) has no message.
+            message = str(error) or "out of memory (MemoryError)"
         else:
             traceback.print_exc()
             message = f"{type(error).__name__}: {error}"
