@@ -67,8 +67,8 @@ def sbatch_command(args, zip_path, job_script, script_args, array=None, dependen
 
 def run_sbatch(cmd, dry_run):
     if dry_run:
-        print(shlex.join(cmd), file=sys.stderr)
-        return "DRYRUN"
+        print(shlex.join(cmd))
+        return "<job id>"
     done = subprocess.run(cmd, capture_output=True, text=True)
     if done.returncode != 0:
         raise SubmitError(f"sbatch failed ({done.returncode}): {done.stderr.strip()}")
@@ -114,7 +114,8 @@ def parse_args(argv):
     common.add_argument("--blender", help="Blender executable on the nodes (default: blender)")
     common.add_argument("--sbatch", default="sbatch", help="sbatch executable (default: %(default)s)")
     common.add_argument("--sbatch-arg", action="append", default=[], help="extra sbatch argument (repeatable)")
-    common.add_argument("--dry-run", action="store_true", help="print the sbatch commands, submit nothing")
+    common.add_argument("--dry-run", action="store_true",
+                        help="print the sbatch commands instead of the job ids, submit nothing")
     sub = parser.add_subparsers(dest="mode", required=True)
     frames = sub.add_parser("frames", parents=[common], help="a frame range, CHUNK frames per array task")
     frames.add_argument("--start", type=int, required=True)
@@ -139,7 +140,8 @@ def main(argv=None):
     except SubmitError as exc:
         print(f"submit.py: error: {exc}", file=sys.stderr)
         return 1
-    print("\n".join(ids))
+    if not args.dry_run:
+        print("\n".join(ids))
     return 0
 
 
