@@ -79,6 +79,23 @@ TEST(MemoryBudget, CheckComparesTheRightPartWithTheLimit) {
     EXPECT_NO_THROW(check_memory(e, {0, false, "unknown"}));  // nothing known: no check
 }
 
+TEST(MemoryBudget, WithoutABudgetTheLimitIsTheAvailableMemory) {
+    ScopedEnv no_budget("COHERENT_MEMORY_LIMIT", "");  // empty: no budget
+    const MemoryLimit limit = memory_limit();
+    std::ifstream meminfo("/proc/meminfo");
+    std::string key;
+    uint64_t available_kib = 0;
+    while (meminfo >> key && key != "MemAvailable:") meminfo.ignore(256, '\n');
+    meminfo >> available_kib;
+    ASSERT_GT(available_kib, 0u);
+    EXPECT_FALSE(limit.whole_render);
+    EXPECT_GT(limit.bytes, 0u);
+    // MemAvailable moves between the two reads; the cgroup may only lower it.
+    EXPECT_LE(limit.bytes, available_kib * 1024 + (256u << 20)) << limit.source;
+    EXPECT_TRUE(limit.source.find("MemAvailable") != std::string::npos ||
+                limit.source.find("cgroup") != std::string::npos) << limit.source;
+}
+
 TEST(MemoryBudget, ARenderOverTheLimitFailsBeforeBuildingAndNamesTheSizes) {
     const Scene scene = sphere_on_floor_scene();
     ScopedEnv limit("COHERENT_MEMORY_LIMIT", "64K");
