@@ -60,7 +60,8 @@ def sbatch_command(args, zip_path, job_script, script_args, array=None, dependen
     if array is not None:
         cmd.append(f"--array={array}")
     if dependency is not None:
-        cmd.append(f"--dependency=afterok:{dependency}")
+        # A failed tile fails the stitch at once instead of leaving it pending forever.
+        cmd += [f"--dependency=afterok:{dependency}", "--kill-on-invalid-dep=yes"]
     cmd += args.sbatch_arg
     return cmd + [str(FARM_DIR / job_script)] + [str(a) for a in script_args]
 
