@@ -22,6 +22,7 @@ PACKAGES=(
   libtinygltf-dev nlohmann-json3-dev libstb-dev
   libgtest-dev libembree-dev
   xvfb libgl1-mesa-dri libglx-mesa0
+  slurm-wlm munge
 )
 
 step "Installing Debian packages"

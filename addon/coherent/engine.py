@@ -74,6 +74,28 @@ def tracing_summary(settings, stats):
     return text
 
 
+def _format_bytes(size):
+    for unit in ("B", "KiB", "MiB", "GiB"):
+        if size < 1024.0 or unit == "GiB":
+            return f"{size:.0f} {unit}" if unit == "B" else f"{size:.1f} {unit}"
+        size /= 1024.0
+
+
+def memory_summary(memory):
+    """One line with what the render held, e.g. "Coherent: memory: peak 412.3 MiB,
+    871,306 triangles at 224 bytes each (BVH 71.4 MiB, scene 114.3 MiB), film 224.0 KiB".
+
+    `memory` is Renderer.stats()["memory"]; the peak is the whole process's
+    (Blender's own memory included).
+    """
+    peak = memory.get("peak_rss_bytes")
+    text = f"Coherent: memory: peak {_format_bytes(peak) if peak else 'n/a'}, {memory['triangles']:,} triangles"
+    if memory.get("bytes_per_triangle") is not None:
+        text += f" at {memory['bytes_per_triangle']:.0f} bytes each"
+    return (text + f" (BVH {_format_bytes(memory['bvh_bytes'])}, scene {_format_bytes(memory['scene_bytes'])}), "
+                   f"film {_format_bytes(memory['film_bytes'])}")
+
+
 def _format_time(seconds):
     seconds = max(0.0, seconds)
     minutes, secs = divmod(int(round(seconds)), 60)
@@ -220,8 +242,11 @@ class CoherentRenderEngine(bpy.types.RenderEngine):
             self._fail(e)
 
     def _fail(self, error):
-        if isinstance(error, (ImportError, export.ExportError)):
-            message = str(error)
+        # MemoryError: the native renderer's check before building (or a
+        # failed allocation) says what did not fit; Blender keeps working.
+        if isinstance(error, (ImportError, export.ExportError, MemoryError)):
+            # A MemoryError from Python itself (e.g. numpy in the export) has no message.
+            message = str(error) or "out of memory (MemoryError)"
         else:
             traceback.print_exc()
             message = f"{type(error).__name__}: {error}"
@@ -299,6 +324,9 @@ class CoherentRenderEngine(bpy.types.RenderEngine):
                    f"in {stats['seconds']:.2f} s")
         print(summary)
         self.report({"INFO"}, summary)
+        memory = memory_summary(stats["memory"])
+        print(memory)
+        self.report({"INFO"}, memory)
         tracing = tracing_summary(renderer.settings, stats)
         print(tracing)
         self.report({"INFO"}, tracing)

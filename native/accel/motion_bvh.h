@@ -42,6 +42,7 @@ public:
 
     bool empty() const { return nodes_.empty(); }
     size_t triangle_count() const { return tris_.size(); }
+    size_t bytes() const { return nodes_.capacity() * sizeof(Node) + tris_.capacity() * sizeof(Tri); }
 
     // Closest hit with t in (ray.tmin, ray.tmax] at time tau, improving on
     // `hit` (an incoming hit, e.g. from the static BVH, shortens the search

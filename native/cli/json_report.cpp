@@ -31,6 +31,22 @@ nlohmann::ordered_json bounce_json(int index, const BounceStats& b) {
     return j;
 }
 
+// Sizes in bytes (stats.h MemoryStats); null where unknown.
+nlohmann::ordered_json memory_json(const MemoryStats& m) {
+    auto known = [](uint64_t v) { return v ? nlohmann::ordered_json(v) : nlohmann::ordered_json(nullptr); };
+    nlohmann::ordered_json j;
+    j["triangles"] = m.triangles;
+    j["scene_bytes"] = m.scene_bytes;
+    j["bvh_bytes"] = m.bvh_bytes;
+    j["film_bytes"] = m.film_bytes;
+    j["bytes_per_triangle"] = ratio(m.bytes_per_triangle());  // scene + BVH
+    j["bvh_bytes_per_triangle"] = ratio(m.bvh_bytes_per_triangle());
+    j["estimate_bytes"] = m.estimate_bytes;  // what the check before the BVH build expected
+    j["limit_bytes"] = known(m.limit_bytes);
+    j["peak_rss_bytes"] = known(m.peak_rss_bytes);  // the process's high-water mark (VmHWM)
+    return j;
+}
+
 // Every settings-table row as the Renderer resolved them (sampler and
 // traversal never Auto).
 nlohmann::ordered_json settings_json(const RenderSettings& s) {
@@ -80,6 +96,7 @@ std::string render_report_json(const RenderReport& r) {
     j["load_seconds"] = r.load_seconds;
     j["build_seconds"] = r.build_seconds;
     j["triangles"] = r.triangles;
+    j["memory"] = memory_json(r.stats.memory);
 
     // What the tracing cost.
     j["rays_per_second"] = r.seconds > 0.0 ? double(r.stats.total_rays()) / r.seconds : 0.0;

@@ -15,6 +15,7 @@
 
 #include "bind_settings.h"
 #include "bindings.h"
+#include "render/memory_budget.h"
 #include "render/renderer.h"
 
 namespace coherent::python {
@@ -66,6 +67,38 @@ py::dict settings_dict(const RenderSettings& s) {
     py::dict d = settings_to_python(s);
     d["counts_path_visits"] = traversal_counts_path_visits(s.traversal);
     return d;
+}
+
+// Sizes in bytes (stats.h MemoryStats); None where unknown.
+py::dict memory_dict(const MemoryStats& m) {
+    py::dict d;
+    auto known = [](uint64_t v) { return v ? py::object(py::int_(v)) : py::object(py::none()); };
+    d["triangles"] = m.triangles;
+    d["scene_bytes"] = m.scene_bytes;
+    d["bvh_bytes"] = m.bvh_bytes;
+    d["film_bytes"] = m.film_bytes;
+    d["bytes_per_triangle"] = ratio_object(m.bytes_per_triangle());
+    d["bvh_bytes_per_triangle"] = ratio_object(m.bvh_bytes_per_triangle());
+    d["estimate_bytes"] = m.estimate_bytes;
+    d["limit_bytes"] = known(m.limit_bytes);
+    d["peak_rss_bytes"] = known(m.peak_rss_bytes);
+    return d;
+}
+
+// A render that does not fit becomes MemoryError with a message naming the
+// sizes, never a crash of the host (Blender): OutOfMemoryBudget from the
+// check before the build, std::bad_alloc from anywhere else.
+void translate_memory_errors(std::exception_ptr error) {
+    try {
+        if (error) std::rethrow_exception(error);
+    } catch (const OutOfMemoryBudget& e) {
+        PyErr_SetString(PyExc_MemoryError, e.what());
+    } catch (const std::bad_alloc&) {
+        PyErr_SetString(PyExc_MemoryError,
+                        "out of memory (std::bad_alloc): the scene, its BVH or the film did not fit in this "
+                        "machine's memory; fewer triangles (instances instead of copies, lower subdivision) or a "
+                        "smaller image would");
+    }
 }
 
 // The relative RMSE estimate, None while unknown (fewer than 2 passes).
@@ -319,6 +352,7 @@ private:
         d["rays_per_second"] = s.seconds > 0.0 ? double(s.total_rays()) / s.seconds : 0.0;
         d["trace_seconds"] = s.trace_seconds;
         d["sort_seconds"] = s.sort_seconds;
+        d["memory"] = memory_dict(s.memory);
         return d;
     }
 
@@ -352,6 +386,7 @@ std::unique_ptr<PyRenderer> make_renderer(std::shared_ptr<PyScene> scene, const 
 }  // namespace
 
 void bind_render(py::module_& m) {
+    py::register_exception_translator(&translate_memory_errors);
     static const std::string doc = std::string(R"doc(
 Renderer(scene, settings=None, **kwargs): renders a Scene. The settings are
 the rows of settings_table(), given as a dict, as keyword arguments (which
@@ -370,7 +405,14 @@ and the progress dict carry error_estimate (None before 2 passes). The
 traversal never 'auto'). stats() adds per-bounce work ("bounces": rays,
 node visits, box and triangle tests per ray, SIMD utilisation of box and
 triangle tests; None where no packet traced), "simd_utilisation",
-"rays_per_second", "trace_seconds" and "sort_seconds".
+"rays_per_second", "trace_seconds", "sort_seconds" and "memory" (bytes:
+scene, BVH, film, per triangle, the estimate checked before the build and
+its limit, the process's peak RSS).
+
+Memory: before building, the renderer estimates what the render needs and
+raises MemoryError, naming the sizes, when that exceeds the available memory
+(or COHERENT_MEMORY_LIMIT, e.g. "8G", a budget for scene, BVH and film);
+running out of memory anywhere else raises MemoryError too.
 
 Settings:
 )doc") + settings_docstring();

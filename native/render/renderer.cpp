@@ -21,6 +21,7 @@
 #include "../sample/image_sampler.h"
 #include "kernel_variants.h"
 #include "light_sampling.h"
+#include "memory_budget.h"
 #include "packet_paths.h"
 #include "path_tracer.h"
 #include "wavefront.h"
@@ -295,6 +296,11 @@ Renderer::Renderer(const Scene& scene, const RenderSettings& settings, std::shar
     settings_.sampler = settings_.resolved_sampler();      // likewise (resolution is idempotent)
     if (settings_.border_x1 < 0) settings_.border_x1 = settings_.width;
     if (settings_.border_y1 < 0) settings_.border_y1 = settings_.height;
+    // Before the BVH build and the film allocate: a render that cannot fit
+    // fails here, naming the sizes (memory_budget.h).
+    const MemoryEstimate estimate = estimate_render_memory(scene_, settings_, !bvh);
+    const MemoryLimit limit = memory_limit();
+    check_memory(estimate, limit);
     if (!bvh) {  // the usual case: build over the scene's triangles
         BvhBuildOptions options;
         options.width = settings_.bvh_width;
@@ -305,6 +311,13 @@ Renderer::Renderer(const Scene& scene, const RenderSettings& settings, std::shar
     bvh_ = std::move(bvh);
     film_ = Film(settings_.border_width(), settings_.border_height());
     if (settings_.heatmaps) film_.enable_heatmaps();
+    MemoryStats& m = stats_.memory;
+    m.triangles = estimate.triangles;
+    m.scene_bytes = estimate.scene;
+    m.bvh_bytes = bvh_->build_stats().bytes + motion_.bytes();
+    m.film_bytes = estimate.film;
+    m.estimate_bytes = estimate.total();
+    m.limit_bytes = limit.bytes;
 }
 
 Renderer::~Renderer() = default;
@@ -452,6 +465,7 @@ bool Renderer::render(const ProgressCallback& progress) {
         if (stop_after_pass(passes_done, spp)) break;
     }
     stats_.seconds = reporter.seconds();
+    stats_.memory.peak_rss_bytes = peak_rss_bytes();
     return !cancelled();
 }
 

@@ -36,7 +36,7 @@ RenderStats& RenderStats::operator+=(const RenderStats& o) {
     sort_seconds += o.sort_seconds;
     nonfinite_samples += o.nonfinite_samples;
     samples += o.samples;
-    // spp, converged_pixels, pixels, error_estimate and seconds describe the whole render, not a
+    // spp, converged_pixels, pixels, error_estimate, seconds and memory describe the whole render, not a
     // per-thread sum; the renderer sets them. seconds is wall-clock time of the whole render, not a per-thread sum.
     return *this;
 }

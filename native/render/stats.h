@@ -45,6 +45,30 @@ private:
 };
 constexpr int kStatBounces = 8;
 
+// What a render holds in memory (memory_budget.h measures and checks it).
+struct MemoryStats {
+    uint64_t triangles = 0;
+    uint64_t scene_bytes = 0;     // the scene's arrays: geometry, per-triangle data, materials, lights
+    uint64_t bvh_bytes = 0;       // the BVH as built (plus the motion BVH of moving triangles)
+    uint64_t film_bytes = 0;      // the film's per-pixel accumulators
+    // The check before the BVH build: what it expected the render to need
+    // (scene, the build's peak, film) and the limit it compared that with
+    // (0: none known).
+    uint64_t estimate_bytes = 0;
+    uint64_t limit_bytes = 0;
+    // The process's resident-memory high-water mark after the render
+    // (VmHWM; the host application's own memory included); 0: unknown.
+    uint64_t peak_rss_bytes = 0;
+
+    // Scene and BVH bytes per triangle; empty without triangles.
+    std::optional<double> bytes_per_triangle() const {
+        return triangles ? std::optional<double>(double(scene_bytes + bvh_bytes) / double(triangles)) : std::nullopt;
+    }
+    std::optional<double> bvh_bytes_per_triangle() const {
+        return triangles ? std::optional<double>(double(bvh_bytes) / double(triangles)) : std::nullopt;
+    }
+};
+
 struct RenderStats {
     std::array<uint64_t, size_t(RayType::Count)> rays{};
     TraversalCounters traversal;
@@ -65,6 +89,7 @@ struct RenderStats {
     // while unknown (fewer than 2 passes).
     double error_estimate = -1.0;
     double seconds = 0.0;
+    MemoryStats memory;  // set by the renderer, not summed over threads
 
     // All bounces together, and the deepest bounce that traced a ray (-1: none).
     BounceStats bounce_total() const {
