@@ -28,12 +28,14 @@ import time
 
 REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 SCENES = ["sun_dim_world.blend", "many_lights.blend", "emissive_mesh.blend", "hdri_world.blend"]
-CONFIGS = ["cycles", "uniform", "power"]
+# power_sobol: selection by power with the Owen-scrambled Sobol pattern, to
+# tell the selection's share of any gap to Cycles from the sampling pattern's.
+CONFIGS = ["cycles", "uniform", "power", "power_sobol"]
 
 
 # --- worker (inside Blender) -----------------------------------------------
 
-def render_one(engine, samples, seed, path, uniform=False):
+def render_one(engine, samples, seed, path, uniform=False, pattern="white"):
     import bpy
     scene = bpy.context.scene
     scene.render.engine = engine
@@ -44,6 +46,7 @@ def render_one(engine, samples, seed, path, uniform=False):
         scene.coherent.seed = seed
         scene.coherent.sampler = "SPT"
         scene.coherent.uniform_light_selection = uniform
+        scene.coherent.pattern = pattern.upper()
     scene.render.filepath = path
     start = time.perf_counter()
     bpy.ops.render.render(write_still=True)
@@ -74,7 +77,8 @@ def worker(args):
         for config in CONFIGS:
             path = os.path.join(out, f"{config}_{seed}.exr")
             engine = "CYCLES" if config == "cycles" else "COHERENT"
-            seconds[f"{config}_{seed}"] = render_one(engine, spp, seed, path, uniform=config == "uniform")
+            seconds[f"{config}_{seed}"] = render_one(engine, spp, seed, path, uniform=config == "uniform",
+                                                     pattern="sobol" if config == "power_sobol" else "white")
             print(f"LIGHT_BENCH {config} seed {seed}: {seconds[f'{config}_{seed}']:.2f} s", flush=True)
     with open(os.path.join(out, "seconds.json"), "w") as f:
         json.dump(seconds, f)
@@ -112,14 +116,14 @@ def measure(work, seeds, spp, ref_spp):
 
 def write_markdown(rows, args_line, spp, ref_spp, res, path):
     lines = [
-        "| scene | RMSE Cycles | RMSE uniform | RMSE power | power / uniform | power / Cycles | "
-        "s Cycles | s uniform | s power | equal-time RMSE power / Cycles | ref. noise |",
-        "|---|---|---|---|---|---|---|---|---|---|---|"]
+        "| scene | RMSE Cycles | RMSE uniform | RMSE power | RMSE power+Sobol | power / uniform | power / Cycles | "
+        "power+Sobol / Cycles | s Cycles | s uniform | s power | equal-time RMSE power / Cycles | ref. noise |",
+        "|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for scene, row in rows.items():
-        c, u, p = row["cycles"], row["uniform"], row["power"]
-        lines.append(f"| {scene} | {c['rmse']:.5f} | {u['rmse']:.5f} | {p['rmse']:.5f} | "
-                     f"{p['rmse'] / u['rmse']:.2f} | {p['rmse'] / c['rmse']:.2f} | {c['seconds']:.2f} | "
-                     f"{u['seconds']:.2f} | {p['seconds']:.2f} | "
+        c, u, p, q = row["cycles"], row["uniform"], row["power"], row["power_sobol"]
+        lines.append(f"| {scene} | {c['rmse']:.5f} | {u['rmse']:.5f} | {p['rmse']:.5f} | {q['rmse']:.5f} | "
+                     f"{p['rmse'] / u['rmse']:.2f} | {p['rmse'] / c['rmse']:.2f} | {q['rmse'] / c['rmse']:.2f} | "
+                     f"{c['seconds']:.2f} | {u['seconds']:.2f} | {p['seconds']:.2f} | "
                      f"{p['rmse_equal_time'] / c['rmse_equal_time']:.2f} | {row['reference_rmse']:.5f} |")
     table = "\n".join(lines)
     with open(path, "w") as f:

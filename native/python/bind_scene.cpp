@@ -1,5 +1,5 @@
 // Python bindings of the scene layer: Scene.add_mesh / add_material /
-// add_light / set_camera / world_color / finalize.
+// add_light / set_camera / world_color / set_world_map / finalize.
 //
 // Array policy (applies to every numpy argument): strict on ndim and shape,
 // lenient on dtype and memory layout. Float arrays accept any real dtype and
@@ -516,8 +516,35 @@ void PyScene::ensure_finalized() {
     finalized = true;
 }
 
+// The world: constant colour and environment map.
+void bind_world(py::class_<PyScene, std::shared_ptr<PyScene>>& cls) {
+    cls.def_property(
+           "world_color", [](const PyScene& s) { return vec_tuple(s.scene.world_color); },
+            [](PyScene& s, const py::handle& v) {
+                s.check_mutable("world_color");
+                const Vec3f c = to_vec3(v, "world_color");
+                if (min_component(c) < 0.0f) throw py::value_error("world_color: components must be >= 0");
+                s.scene.world_color = c;
+                s.finalized = false;
+            },
+            "Constant environment radiance (r, g, b).")
+        .def("set_world_map", &set_world_map, py::arg("pixels"), py::arg("rotation") = py::none(),
+             "Makes the world an equirectangular environment map: pixels (height, width, 3 or 4) linear RGB(A), "
+             "rows bottom to top as Blender's Image.pixels; rotation: 3x3 taking world directions to the map's "
+             "frame. World radiance = world_color x map. Non-finite or negative values become 0; returns "
+             "how many did.")
+        .def("clear_world_map", [](PyScene& s) {
+                s.check_mutable("clear_world_map");
+                s.scene.world_map = EnvironmentMap{};
+                s.finalized = false;
+            }, "Back to the constant world_color.")
+        .def_property_readonly("world_map_size", [](const PyScene& s) {
+                return py::make_tuple(s.scene.world_map.width, s.scene.world_map.height);
+            }, "(width, height) of the world's environment map; (0, 0) for none.");
+}
+
 void bind_scene(py::module_& m) {
-    py::class_<PyScene, std::shared_ptr<PyScene>>(m, "Scene", R"doc(
+    auto cls = py::class_<PyScene, std::shared_ptr<PyScene>>(m, "Scene", R"doc(
 A scene under construction: world-space triangles, materials, lights, camera
 and world colour. Fill it with add_material/add_mesh/add_light/set_camera,
 then pass it to Renderer (which calls finalize() if needed). Material 0 is the
@@ -588,29 +615,6 @@ a different triangle count. Returns seconds (copy + refit).)doc")
              "Sets the camera (world-space frame; half extents of the image plane at distance 1, "
              "or in world units for 'ORTHO').")
         .def_property_readonly("camera", [](const PyScene& s) { return camera_dict(s.scene.camera); })
-        .def_property(
-            "world_color", [](const PyScene& s) { return vec_tuple(s.scene.world_color); },
-            [](PyScene& s, const py::handle& v) {
-                s.check_mutable("world_color");
-                const Vec3f c = to_vec3(v, "world_color");
-                if (min_component(c) < 0.0f) throw py::value_error("world_color: components must be >= 0");
-                s.scene.world_color = c;
-                s.finalized = false;
-            },
-            "Constant environment radiance (r, g, b).")
-        .def("set_world_map", &set_world_map, py::arg("pixels"), py::arg("rotation") = py::none(),
-             "Makes the world an equirectangular environment map: pixels (height, width, 3 or 4) linear RGB(A), "
-             "rows bottom to top as Blender's Image.pixels; rotation: 3x3 taking world directions to the map's "
-             "frame. World radiance = world_color x map. Non-finite or negative values become 0; returns "
-             "how many did.")
-        .def("clear_world_map", [](PyScene& s) {
-                s.check_mutable("clear_world_map");
-                s.scene.world_map = EnvironmentMap{};
-                s.finalized = false;
-            }, "Back to the constant world_color.")
-        .def_property_readonly("world_map_size", [](const PyScene& s) {
-                return py::make_tuple(s.scene.world_map.width, s.scene.world_map.height);
-            }, "(width, height) of the world's environment map; (0, 0) for none.")
         .def("finalize", &PyScene::ensure_finalized,
              "Computes scene features and the emissive triangle list. Renderer calls it if needed.")
         .def_property_readonly("finalized", [](const PyScene& s) { return s.finalized; })
@@ -639,6 +643,7 @@ a different triangle count. Returns seconds (copy + refit).)doc")
                    std::to_string(s.scene.materials.size()) + " materials, " + std::to_string(s.scene.lights.size()) +
                    " lights>";
         });
+    bind_world(cls);
 }
 
 }  // namespace coherent::python
