@@ -227,13 +227,15 @@ double light_importance(const Light& in, const LightRecord& l, float cross_secti
 }  // namespace
 
 LightSet::LightSet(const Scene& scene, LightSelection selection) : scene_(&scene) {
-    const float cross_section = scene_cross_section(scene);
+    // Only suns and the world need the cross-section; bounds() walks every vertex.
+    float cross_section = -1.0f;
+    auto section = [&] { return cross_section < 0.0f ? (cross_section = scene_cross_section(scene)) : cross_section; };
     std::vector<double> importance;  // per unit, in the order of unit_cdf_
     for (const Light& in : scene.lights) {
         LightRecord l;
         if (!light_record(in, l)) continue;
         lights_.push_back(l);
-        importance.push_back(light_importance(in, l, cross_section));
+        importance.push_back(light_importance(in, l, l.type == LightType::Sun ? section() : 0.0f));
     }
     pick_triangles_by_power(scene);
     world_color_ = scene.world_color;
@@ -244,7 +246,7 @@ LightSet::LightSet(const Scene& scene, LightSelection selection) : scene_(&scene
     if (triangles_) importance.push_back(2.0 * double(kPi) * total_triangle_power_);
     if (world_) {
         const double mean_radiance = double(luminance(world_color_)) * (has_map_ ? env_.mean_luminance() : 1.0);
-        importance.push_back(double(kPi) * mean_radiance * double(cross_section));
+        importance.push_back(double(kPi) * mean_radiance * double(section()));
     }
     choose_unit_probabilities(importance, selection);
 }

@@ -12,7 +12,8 @@
 // importance estimate is for a given shading point. sample() and every pdf
 // function (hit_lights, escaped, triangle_pdf) read the same p_i, so MIS
 // weights stay exact. Importance is an estimate of the power the unit
-// delivers into the scene, in watts (see unit_importance() in the .cpp).
+// delivers into the scene, in watts (light_importance() and the constructor
+// in the .cpp state and justify the units per kind of emitter).
 //
 // Light units follow Cycles 3.4 exactly. Measured in Blender 3.4.1 (Cycles
 // CPU, 512 spp, white Lambert plane, light 2 m above, orthographic camera,
@@ -83,7 +84,8 @@ public:
 
     // Samples one emitter for shading point p with shading normal n (facing
     // the viewer). `transmissive` selects uniform-sphere instead of cosine
-    // sampling for the world (the BSDF can see the lower hemisphere).
+    // sampling for a constant world (the BSDF can see the lower hemisphere);
+    // an environment map is sampled by its own distribution either way.
     bool sample(const Vec3f& p, const Vec3f& n, bool transmissive, float u_pick, float u1, float u2, LightSample& ls) const;
 
     // Emission picked up by a bounce ray o + t d (unit d), t < tmax, from
