@@ -287,6 +287,116 @@ def make_glass_scene():
     return scene
 
 
+# --- Light selection scenes --------------------------------------------------
+#
+# Small scenes where picking emitters by importance matters (issue 10): a
+# bright sun with a dim world, many lights of varied power, one large emissive
+# mesh with a dim world, and an HDRI world (issue 11). They share a stage: a
+# grey floor, a back wall and three objects.
+
+HDRI_PATH = "/usr/share/blender/datafiles/studiolights/world/forest.exr"
+
+
+def emission_material(name, rgb, strength):
+    mat = bpy.data.materials.new(name)
+    mat.use_nodes = True
+    nodes = mat.node_tree.nodes
+    nodes.clear()
+    out = nodes.new("ShaderNodeOutputMaterial")
+    emit = nodes.new("ShaderNodeEmission")
+    emit.inputs["Color"].default_value = (*rgb, 1.0)
+    emit.inputs["Strength"].default_value = strength
+    mat.node_tree.links.new(emit.outputs["Emission"], out.inputs["Surface"])
+    return mat
+
+
+def light_stage(name, wall=True):
+    """A new scene with floor, optional back wall, a box, a diffuse and a metal sphere, and a camera."""
+    scene = new_empty_scene(name)
+    grey = diffuse_material("Grey", (0.6, 0.6, 0.6))
+    mesh_object(scene, "Floor", [(-6, -6, 0), (6, -6, 0), (6, 6, 0), (-6, 6, 0)], [(0, 1, 2, 3)], grey)
+    if wall:
+        mesh_object(scene, "Wall", [(-6, 2.5, 0), (6, 2.5, 0), (6, 2.5, 4), (-6, 2.5, 4)], [(0, 1, 2, 3)],
+                    diffuse_material("Blue", (0.3, 0.4, 0.6)))
+    box = [(-1.9, -0.6), (-0.9, -0.9), (-0.6, 0.1), (-1.6, 0.4)]
+    mesh_object(scene, "Box", *rotated_box(box, 1.0), diffuse_material("Orange", (0.8, 0.45, 0.2)))
+    uv_sphere_object(scene, "Sphere", (0.4, 0.3, 0.6), 0.6, diffuse_material("White", (0.8, 0.8, 0.8)),
+                     segments=32, rings=16)
+    uv_sphere_object(scene, "MetalSphere", (1.7, -0.4, 0.5), 0.5, principled_material("RoughMetal", **{
+        "Base Color": (0.9, 0.7, 0.5, 1.0), "Metallic": 1.0, "Roughness": 0.4}), segments=32, rings=16)
+    camera_object(scene, (0.0, -7.0, 3.2), (70.0, 0.0, 0.0), 40.0)
+    return scene
+
+
+def make_sun_dim_world():
+    scene = light_stage("Sun and dim world")
+    set_world_color(scene, (0.03, 0.04, 0.06))
+    sun = bpy.data.lights.new("Sun", 'SUN')
+    sun.energy = 4.0
+    sun.angle = math.radians(3.0)
+    sun_obj = bpy.data.objects.new("Sun", sun)
+    sun_obj.rotation_euler = (math.radians(50.0), 0.0, math.radians(35.0))
+    scene.collection.objects.link(sun_obj)
+    configure_render(scene, samples=64)
+    return scene
+
+
+def make_many_lights():
+    """40 small lights, point and area, whose powers span 0.5 to 200 W."""
+    import random
+    rng = random.Random(7)
+    scene = light_stage("Many lights")
+    set_world_color(scene, (0.0, 0.0, 0.0))
+    for i in range(40):
+        area = i % 4 == 3
+        light = bpy.data.lights.new(f"Light{i:02d}", 'AREA' if area else 'POINT')
+        light.energy = 0.5 * 400.0 ** rng.random()
+        light.color = (0.6 + 0.4 * rng.random(), 0.6 + 0.4 * rng.random(), 0.6 + 0.4 * rng.random())
+        if area:
+            light.size = 0.3
+        else:
+            light.shadow_soft_size = 0.05
+        obj = bpy.data.objects.new(f"Light{i:02d}", light)
+        obj.location = (rng.uniform(-4.5, 4.5), rng.uniform(-3.0, 2.0), rng.uniform(1.2, 3.5))
+        obj.visible_camera = False
+        scene.collection.objects.link(obj)
+    configure_render(scene, samples=64)
+    return scene
+
+
+def make_emissive_mesh():
+    """A large emissive panel (a 16 x 8 grid: 256 triangles) and a dim world."""
+    scene = light_stage("Emissive mesh")
+    set_world_color(scene, (0.02, 0.02, 0.03))
+    nu, nv = 16, 8
+    verts = [(-3.0 + 6.0 * i / nu, 1.5 - 1.5 * j / nv, 3.6 - 0.6 * j / nv) for j in range(nv + 1) for i in range(nu + 1)]
+    faces = [(j * (nu + 1) + i, j * (nu + 1) + i + 1, (j + 1) * (nu + 1) + i + 1, (j + 1) * (nu + 1) + i)
+             for j in range(nv) for i in range(nu)]
+    mesh_object(scene, "Panel", verts, faces, emission_material("Panel", (1.0, 0.9, 0.8), 3.0))
+    configure_render(scene, samples=64)
+    return scene
+
+
+def make_hdri_world():
+    """Blender's forest.exr as the world, rotated 40 degrees about Z through a Mapping node."""
+    scene = light_stage("HDRI world", wall=False)
+    world = scene.world
+    world.use_nodes = True
+    nodes, links = world.node_tree.nodes, world.node_tree.links
+    bg = nodes.get("Background")
+    env = nodes.new("ShaderNodeTexEnvironment")
+    env.image = bpy.data.images.load(HDRI_PATH, check_existing=True)
+    mapping = nodes.new("ShaderNodeMapping")
+    mapping.inputs["Rotation"].default_value = (0.0, 0.0, math.radians(40.0))
+    coords = nodes.new("ShaderNodeTexCoord")
+    links.new(coords.outputs["Generated"], mapping.inputs["Vector"])
+    links.new(mapping.outputs["Vector"], env.inputs["Vector"])
+    links.new(env.outputs["Color"], bg.inputs["Color"])
+    bg.inputs["Strength"].default_value = 1.5
+    configure_render(scene, samples=64)
+    return scene
+
+
 def save(scene, filename):
     path = os.path.join(HERE, filename)
     bpy.context.preferences.filepaths.save_version = 0  # no .blend1 backups next to the scenes
@@ -294,10 +404,16 @@ def save(scene, filename):
     print(f"make_scenes: wrote {path} (engine {scene.render.engine})")
 
 
+SCENES = {"cornell_box.blend": make_cornell_box, "glass_scene.blend": make_glass_scene,
+          "sun_dim_world.blend": make_sun_dim_world, "many_lights.blend": make_many_lights,
+          "emissive_mesh.blend": make_emissive_mesh, "hdri_world.blend": make_hdri_world}
+
+
 def main():
-    for builder, filename in ((make_cornell_box, "cornell_box.blend"),
-                              (make_glass_scene, "glass_scene.blend")):
-        scene = builder()
+    """Writes every scene, or those named after `--` (e.g. -- hdri_world.blend)."""
+    names = sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else list(SCENES)
+    for filename in names:
+        scene = SCENES[filename]()
         save(scene, filename)
 
 

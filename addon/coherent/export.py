@@ -20,6 +20,7 @@ import time
 import numpy as np
 
 from . import materials, motion
+from .world import export_world
 
 # Object types that evaluate to a surface we can triangulate.
 _MESH_TYPES = {"MESH", "CURVE", "SURFACE", "FONT", "META"}
@@ -226,7 +227,7 @@ class SceneExporter:
             if key not in covered:
                 self._export_mesh_instance(None, ob, matrix)
 
-        self.result.scene.world_color = materials.world_color(bscene.world, self.result.warnings)
+        export_world(bscene.world, self.result.scene, self.result.warnings)
         summary = self.result.scene.dropped_summary
         if summary:
             self.result.warnings.append(summary)

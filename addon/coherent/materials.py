@@ -265,27 +265,6 @@ def _active_output(node_tree, idname):
 
 
 def world_color(world, warnings):
-    """Constant radiance of a World: Background node colour x strength, or world.color."""
-    if world is None:
-        return (0.0, 0.0, 0.0)
-    if not world.use_nodes or world.node_tree is None:
-        return _rgb(world.color)
-    output = _active_output(world.node_tree, "ShaderNodeOutputWorld")
-    if output is None:
-        return (0.0, 0.0, 0.0)
-    source = _linked_source(output.inputs["Surface"])
-    if source is None:
-        return (0.0, 0.0, 0.0)
-    node = source[0]
-    if node.bl_idname != "ShaderNodeBackground":
-        warnings.append(f"World '{world.name}': surface node {node.bl_idname} is not supported, "
-                        f"using the world colour")
-        return _rgb(world.color)
-    color_socket, strength_socket = node.inputs["Color"], node.inputs["Strength"]
-    for socket in (color_socket, strength_socket):
-        linked = _linked_source(socket)
-        if linked is not None:
-            warnings.append(f"World '{world.name}': Background '{socket.name}' is driven by "
-                            f"{linked[0].bl_idname}, which is not supported: using its default value")
-    strength = float(strength_socket.default_value)
-    return tuple(max(c * strength, 0.0) for c in _rgb(color_socket.default_value))
+    """The native scene's world_color for a World: constant radiance, or an HDRI's strength (world.py)."""
+    from .world import parse_world
+    return parse_world(world, warnings).color

@@ -47,6 +47,7 @@ TABLE_PROPERTIES = {
     "transmission_bounces": ("transmission_bounces", {}),
     "clamp_direct": ("clamp_direct", {}),
     "clamp_indirect": ("clamp_indirect", {}),
+    "uniform_light_selection": ("uniform_light_selection", {}),
     "threads": ("threads", dict(description="Render threads; 0 uses Blender's Performance > Threads setting "
                                             "(all cores when set to Auto-Detect)")),
     "tile_size": ("tile_size", {}),

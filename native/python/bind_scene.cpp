@@ -1,5 +1,5 @@
 // Python bindings of the scene layer: Scene.add_mesh / add_material /
-// add_light / set_camera / world_color / finalize.
+// add_light / set_camera / world_color / set_world_map / finalize.
 //
 // Array policy (applies to every numpy argument): strict on ndim and shape,
 // lenient on dtype and memory layout. Float arrays accept any real dtype and
@@ -464,6 +464,43 @@ double refit_bvh_from(PyScene& self, const PyScene& previous) {
     return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 }
 
+// The world's environment map from a numpy image. Returns the number of
+// pixel values replaced by 0 (non-finite or negative), for a warning.
+size_t set_world_map(PyScene& self, const py::handle& pixels, const py::handle& rotation) {
+    self.check_mutable("set_world_map");
+    FloatArray a = float_array(pixels, {-1, -1, -1}, "pixels", "(height, width, 3 or 4)");
+    const py::ssize_t h = a.shape(0), w = a.shape(1), c = a.shape(2);
+    if (c != 3 && c != 4) throw py::value_error("pixels: expected 3 or 4 channels, got " + std::to_string(c));
+    if (h < 1 || w < 1) throw py::value_error("pixels: the image is empty, shape " + shape_string(a));
+    EnvironmentMap map;
+    if (!rotation.is_none()) {
+        FloatArray r = float_array(rotation, {3, 3}, "rotation", "(3, 3)");
+        for (int i = 0; i < 9; ++i) map.rotation[i] = r.data()[i];
+        for (int i = 0; i < 3; ++i)
+            for (int j = 0; j < 3; ++j) {
+                float dot_ij = 0.0f;
+                for (int k = 0; k < 3; ++k) dot_ij += map.rotation[3 * i + k] * map.rotation[3 * j + k];
+                if (!(std::fabs(dot_ij - (i == j ? 1.0f : 0.0f)) < 1e-3f))
+                    throw py::value_error("rotation: expected an orthonormal 3x3 rotation matrix");
+            }
+    }
+    map.width = int(w);
+    map.height = int(h);
+    map.rgb.resize(size_t(w) * size_t(h) * 3);
+    size_t replaced = 0;
+    const float* src = a.data();
+    for (size_t i = 0; i < size_t(w) * size_t(h); ++i)
+        for (int ch = 0; ch < 3; ++ch) {
+            const float v = src[i * size_t(c) + size_t(ch)];
+            const bool ok = std::isfinite(v) && v >= 0.0f;
+            replaced += ok ? 0 : 1;
+            map.rgb[i * 3 + size_t(ch)] = ok ? v : 0.0f;
+        }
+    self.scene.world_map = std::move(map);
+    self.finalized = false;
+    return replaced;
+}
+
 }  // namespace
 
 void PyScene::check_mutable(const char* what) const {
@@ -479,8 +516,35 @@ void PyScene::ensure_finalized() {
     finalized = true;
 }
 
+// The world: constant colour and environment map.
+void bind_world(py::class_<PyScene, std::shared_ptr<PyScene>>& cls) {
+    cls.def_property(
+           "world_color", [](const PyScene& s) { return vec_tuple(s.scene.world_color); },
+            [](PyScene& s, const py::handle& v) {
+                s.check_mutable("world_color");
+                const Vec3f c = to_vec3(v, "world_color");
+                if (min_component(c) < 0.0f) throw py::value_error("world_color: components must be >= 0");
+                s.scene.world_color = c;
+                s.finalized = false;
+            },
+            "Constant environment radiance (r, g, b).")
+        .def("set_world_map", &set_world_map, py::arg("pixels"), py::arg("rotation") = py::none(),
+             "Makes the world an equirectangular environment map: pixels (height, width, 3 or 4) linear RGB(A), "
+             "rows bottom to top as Blender's Image.pixels; rotation: 3x3 taking world directions to the map's "
+             "frame. World radiance = world_color x map. Non-finite or negative values become 0; returns "
+             "how many did.")
+        .def("clear_world_map", [](PyScene& s) {
+                s.check_mutable("clear_world_map");
+                s.scene.world_map = EnvironmentMap{};
+                s.finalized = false;
+            }, "Back to the constant world_color.")
+        .def_property_readonly("world_map_size", [](const PyScene& s) {
+                return py::make_tuple(s.scene.world_map.width, s.scene.world_map.height);
+            }, "(width, height) of the world's environment map; (0, 0) for none.");
+}
+
 void bind_scene(py::module_& m) {
-    py::class_<PyScene, std::shared_ptr<PyScene>>(m, "Scene", R"doc(
+    auto cls = py::class_<PyScene, std::shared_ptr<PyScene>>(m, "Scene", R"doc(
 A scene under construction: world-space triangles, materials, lights, camera
 and world colour. Fill it with add_material/add_mesh/add_light/set_camera,
 then pass it to Renderer (which calls finalize() if needed). Material 0 is the
@@ -551,16 +615,6 @@ a different triangle count. Returns seconds (copy + refit).)doc")
              "Sets the camera (world-space frame; half extents of the image plane at distance 1, "
              "or in world units for 'ORTHO').")
         .def_property_readonly("camera", [](const PyScene& s) { return camera_dict(s.scene.camera); })
-        .def_property(
-            "world_color", [](const PyScene& s) { return vec_tuple(s.scene.world_color); },
-            [](PyScene& s, const py::handle& v) {
-                s.check_mutable("world_color");
-                const Vec3f c = to_vec3(v, "world_color");
-                if (min_component(c) < 0.0f) throw py::value_error("world_color: components must be >= 0");
-                s.scene.world_color = c;
-                s.finalized = false;
-            },
-            "Constant environment radiance (r, g, b).")
         .def("finalize", &PyScene::ensure_finalized,
              "Computes scene features and the emissive triangle list. Renderer calls it if needed.")
         .def_property_readonly("finalized", [](const PyScene& s) { return s.finalized; })
@@ -589,6 +643,7 @@ a different triangle count. Returns seconds (copy + refit).)doc")
                    std::to_string(s.scene.materials.size()) + " materials, " + std::to_string(s.scene.lights.size()) +
                    " lights>";
         });
+    bind_world(cls);
 }
 
 }  // namespace coherent::python

@@ -192,16 +192,84 @@ bool light_record(const Light& in, LightRecord& l) {
 
 }  // namespace
 
-LightSet::LightSet(const Scene& scene) : scene_(&scene) {
+namespace {
+
+// What a unit delivers into the scene, in watts, so that lights of every kind
+// compare on one scale:
+// - point/spot: the emitted flux P (Cycles: intensity P / (4 pi) over the
+//   sphere); a spot's mask is ignored, as the camera usually sees what it lights;
+// - area: flux pi L A = pi P / 4 (one-sided Lambertian emitter of radiance P / (4 A));
+// - emissive triangles: 2 pi L A summed (two-sided);
+// - sun: irradiance E times the scene's cross-section pi r^2 (r: half the
+//   bounding-box diagonal): the flux of a parallel beam through the scene;
+// - world: the irradiance an upward patch gets from the mean radiance,
+//   pi L_mean, times the same cross-section pi r^2.
+// Sun and world thus compare as the light they put on an unoccluded patch
+// facing them, and with local lights as the flux they bring into the scene's
+// bounding sphere. A wrong estimate costs noise, never bias (kUniformShare).
+float scene_cross_section(const Scene& scene) {
+    const BBox b = scene.bounds();
+    const float r = b.empty() ? 0.0f : 0.5f * length(b.extent());
+    return r > 0.0f && std::isfinite(r) ? kPi * r * r : kPi;
+}
+
+double light_importance(const Light& in, const LightRecord& l, float cross_section) {
+    const double flux = double(in.power) * double(luminance(in.color));
+    switch (l.type) {
+        case LightType::Point:
+        case LightType::Spot: return flux;
+        case LightType::Area: return 0.25 * double(kPi) * flux;
+        case LightType::Sun: return flux * double(cross_section);
+    }
+    return flux;
+}
+
+}  // namespace
+
+LightSet::LightSet(const Scene& scene, LightSelection selection) : scene_(&scene) {
+    // Only suns and the world need the cross-section; bounds() walks every vertex.
+    float cross_section = -1.0f;
+    auto section = [&] { return cross_section < 0.0f ? (cross_section = scene_cross_section(scene)) : cross_section; };
+    std::vector<double> importance;  // per unit, in the order of unit_cdf_
     for (const Light& in : scene.lights) {
         LightRecord l;
-        if (light_record(in, l)) lights_.push_back(l);
+        if (!light_record(in, l)) continue;
+        lights_.push_back(l);
+        importance.push_back(light_importance(in, l, l.type == LightType::Sun ? section() : 0.0f));
     }
     pick_triangles_by_power(scene);
     world_color_ = scene.world_color;
-    world_ = !is_black(world_color_) && is_finite(world_color_);
+    has_map_ = !scene.world_map.empty();
+    if (has_map_) env_ = EnvironmentSampler(scene.world_map);
+    world_ = !is_black(world_color_) && is_finite(world_color_) && (!has_map_ || !env_.empty());
     units_ = int(lights_.size()) + (triangles_ ? 1 : 0) + (world_ ? 1 : 0);
-    unit_pdf_ = units_ > 0 ? 1.0f / float(units_) : 0.0f;
+    if (triangles_) importance.push_back(2.0 * double(kPi) * total_triangle_power_);
+    if (world_) {
+        const double mean_radiance = double(luminance(world_color_)) * (has_map_ ? env_.mean_luminance() : 1.0);
+        importance.push_back(double(kPi) * mean_radiance * double(section()));
+    }
+    choose_unit_probabilities(importance, selection);
+}
+
+void LightSet::choose_unit_probabilities(const std::vector<double>& importance, LightSelection selection) {
+    if (units_ == 0) return;
+    double total = 0.0;
+    for (double w : importance) total += std::isfinite(w) && w > 0.0 ? w : 0.0;
+    // One unit: p = 1 either way, picked with the uniform arithmetic (bit-identical to before).
+    uniform_ = selection == LightSelection::Uniform || units_ == 1 || !(total > 0.0) || !std::isfinite(total);
+    std::vector<float> pick(static_cast<size_t>(units_));
+    for (size_t i = 0; i < pick.size(); ++i) {
+        const double w = std::isfinite(importance[i]) && importance[i] > 0.0 ? importance[i] : 0.0;
+        pick[i] = uniform_ ? 1.0f / float(units_)
+                           : float((1.0 - kUniformShare) * w / total + kUniformShare / double(units_));
+    }
+    for (size_t i = 0; i < lights_.size(); ++i) lights_[i].pick = pick[i];
+    if (triangles_) tri_unit_pick_ = pick[lights_.size()];
+    if (world_) world_pick_ = pick.back();
+    unit_cdf_.resize(pick.size());
+    double acc = 0.0;
+    for (size_t i = 0; i < pick.size(); ++i) unit_cdf_[i] = float(acc += double(pick[i]));
+    unit_cdf_.back() = 1.0f;
 }
 
 void LightSet::pick_triangles_by_power(const Scene& scene) {
@@ -220,6 +288,7 @@ void LightSet::pick_triangles_by_power(const Scene& scene) {
     }
     if (!(total > 0.0)) return;
     triangles_ = true;
+    total_triangle_power_ = total;
     double acc = 0.0;
     tri_cdf_.resize(power.size());
     for (size_t i = 0; i < power.size(); ++i) {
@@ -231,6 +300,7 @@ void LightSet::pick_triangles_by_power(const Scene& scene) {
 }
 
 float LightSet::world_pdf(const Vec3f& d, const Vec3f& n, bool transmissive) const {
+    if (has_map_) return env_.pdf(d);
     if (transmissive) return 1.0f / (4.0f * kPi);
     return std::max(0.0f, dot(d, n)) * kInvPi;
 }
@@ -326,17 +396,35 @@ bool sample_analytic_light(const LightRecord& l, const Vec3f& p, float u1, float
 bool LightSet::sample(const Vec3f& p, const Vec3f& n, bool transmissive, float u_pick, float u1, float u2,
                       LightSample& ls) const {
     if (units_ == 0) return false;
-    const float scaled = u_pick * float(units_);
-    const int unit = std::min(int(scaled), units_ - 1);
-    const float u_rest = std::clamp(scaled - float(unit), 0.0f, 0.99999994f);
+    int unit;
+    float u_rest;
+    if (uniform_) {
+        const float scaled = u_pick * float(units_);
+        unit = std::min(int(scaled), units_ - 1);
+        u_rest = std::clamp(scaled - float(unit), 0.0f, 0.99999994f);
+    } else {
+        unit = std::min(int(std::upper_bound(unit_cdf_.begin(), unit_cdf_.end(), u_pick) - unit_cdf_.begin()),
+                        units_ - 1);
+        const float lo = unit > 0 ? unit_cdf_[size_t(unit) - 1] : 0.0f;
+        const float width = unit_cdf_[size_t(unit)] - lo;
+        u_rest = std::clamp(width > 0.0f ? (u_pick - lo) / width : 0.5f, 0.0f, 0.99999994f);
+    }
     ls = LightSample{};
-    if (unit < int(lights_.size())) return sample_analytic_light(lights_[unit], p, u1, u2, unit_pdf_, ls);
+    if (unit < int(lights_.size())) return sample_analytic_light(lights_[unit], p, u1, u2, lights_[unit].pick, ls);
     if (triangles_ && unit == int(lights_.size())) return sample_triangle(p, u_rest, u1, u2, ls);
     return sample_world(n, transmissive, u1, u2, ls);
 }
 
 // World: cosine around the shading normal, or the whole sphere for BSDFs that transmit.
 bool LightSet::sample_world(const Vec3f& n, bool transmissive, float u1, float u2, LightSample& ls) const {
+    if (has_map_) {
+        float pdf;
+        if (!env_.sample(u1, u2, ls.wi, pdf)) return false;
+        ls.pdf = world_pick_ * pdf;
+        ls.li = world_color_ * env_.eval(ls.wi);
+        ls.dist = kInf;
+        return ls.pdf > 0.0f;
+    }
     if (transmissive) {
         const float z = 1.0f - 2.0f * u1;
         const float r = std::sqrt(std::max(0.0f, 1.0f - z * z));
@@ -348,7 +436,7 @@ bool LightSet::sample_world(const Vec3f& n, bool transmissive, float u1, float u
         make_basis(n, t, b);
         ls.wi = t * local.x + b * local.y + n * local.z;
     }
-    ls.pdf = unit_pdf_ * world_pdf(ls.wi, n, transmissive);
+    ls.pdf = world_pick_ * world_pdf(ls.wi, n, transmissive);
     ls.li = world_color_;
     ls.dist = kInf;
     return ls.pdf > 0.0f;
@@ -372,7 +460,7 @@ bool LightSet::sample_triangle(const Vec3f& p, float u_pick, float u1, float u2,
     if (!(cos_l > 0.0f)) return false;
     ls.dist = d;
     ls.li = scene_->materials[scene_->material_of[tri]].emission;
-    ls.pdf = unit_pdf_ * tri_pick_[tri] / tri_area_[i] * d2 / cos_l;
+    ls.pdf = tri_unit_pick_ * tri_pick_[tri] / tri_area_[i] * d2 / cos_l;
     ls.on_surface = true;
     ls.p_light = q;
     ls.n_light = dot(ng, ls.wi) < 0.0f ? ng : -ng;  // facing the shading point
@@ -387,7 +475,7 @@ float LightSet::triangle_pdf(uint32_t tri, const Vec3f& o, const Vec3f& p_light,
     const float d2 = length_squared(to);
     const float cos_l = std::fabs(dot(n_light, to)) / std::sqrt(d2);
     if (!(cos_l > 0.0f) || !(area > 0.0f)) return 0.0f;
-    return unit_pdf_ * tri_pick_[tri] / area * d2 / cos_l;
+    return tri_unit_pick_ * tri_pick_[tri] / area * d2 / cos_l;
 }
 
 Vec3f LightSet::hit_lights(const Vec3f& o, const Vec3f& d, float tmax, float bsdf_pdf) const {
@@ -406,8 +494,8 @@ Vec3f LightSet::hit_lights(const Vec3f& o, const Vec3f& d, float tmax, float bsd
             if (bsdf_pdf > 0.0f) {
                 SphericalRect sr;
                 const float light_pdf = is_rect(l) && make_spherical_rect(o, l, sr)
-                                            ? unit_pdf_ / float(sr.solid_angle)
-                                            : unit_pdf_ * t * t / (l.area * -denom);
+                                            ? l.pick / float(sr.solid_angle)
+                                            : l.pick * t * t / (l.area * -denom);
                 w = power_heuristic(bsdf_pdf, light_pdf);
             }
             sum += l.radiance * w;
@@ -421,7 +509,7 @@ Vec3f LightSet::hit_lights(const Vec3f& o, const Vec3f& d, float tmax, float bsd
             const float omc = disc_one_minus_cos(l.radius, dist);
             if (one_minus_cos_between(d, w_c) > omc) continue;
             if (!(dist / cos_c < tmax)) continue;  // the disc faces o at distance `dist`
-            const float light_pdf = unit_pdf_ / (2.0f * kPi * omc);
+            const float light_pdf = l.pick / (2.0f * kPi * omc);
             const float w = bsdf_pdf > 0.0f ? power_heuristic(bsdf_pdf, light_pdf) : 1.0f;
             sum += l.radiance * (spot_attenuation(l, -d) * w);
         }
@@ -429,17 +517,22 @@ Vec3f LightSet::hit_lights(const Vec3f& o, const Vec3f& d, float tmax, float bsd
     return sum;
 }
 
+Vec3f LightSet::world_radiance(const Vec3f& d) const {
+    if (!has_map_) return world_color_;
+    return env_.empty() ? Vec3f(0.0f) : world_color_ * env_.eval(d);
+}
+
 Vec3f LightSet::escaped(const Vec3f& d, const Vec3f& n, bool transmissive, float bsdf_pdf) const {
     Vec3f sum(0.0f);
     if (world_) {
-        const float light_pdf = unit_pdf_ * world_pdf(d, n, transmissive);
+        const float light_pdf = world_pick_ * world_pdf(d, n, transmissive);
         const float w = bsdf_pdf > 0.0f ? power_heuristic(bsdf_pdf, light_pdf) : 1.0f;
-        sum += world_color_ * w;
+        sum += world_radiance(d) * w;
     }
     for (const LightRecord& l : lights_) {
         if (l.type != LightType::Sun || !(l.sun_solid_angle > 0.0f)) continue;
         if (one_minus_cos_between(d, -l.direction) > 1.0f - l.cos_half_sun) continue;
-        const float light_pdf = unit_pdf_ / l.sun_solid_angle;
+        const float light_pdf = l.pick / l.sun_solid_angle;
         const float w = bsdf_pdf > 0.0f ? power_heuristic(bsdf_pdf, light_pdf) : 1.0f;
         sum += l.radiance * w;
     }

@@ -1,7 +1,19 @@
 // Every emitter of a scene behind one interface for next-event estimation
 // and for multiple importance sampling of BSDF-sampled rays that hit them:
 // analytic lights (point, spot, sun, area), emissive triangles and the
-// constant world colour.
+// world (a constant colour or an environment map, world_sampling.h).
+//
+// Selection: one emitter "unit" (each analytic light, the set of emissive
+// triangles, the world) is picked per shadow ray, with probability
+//     p_i = (1 - kUniformShare) importance_i / sum(importance) + kUniformShare / units
+// (LightSelection::Power), or 1 / units (LightSelection::Uniform, the
+// selection before importance). The uniform share keeps every emitter that
+// can contribute at p > 0, so the estimator stays unbiased however wrong the
+// importance estimate is for a given shading point. sample() and every pdf
+// function (hit_lights, escaped, triangle_pdf) read the same p_i, so MIS
+// weights stay exact. Importance is an estimate of the power the unit
+// delivers into the scene, in watts (light_importance() and the constructor
+// in the .cpp state and justify the units per kind of emitter).
 //
 // Light units follow Cycles 3.4 exactly. Measured in Blender 3.4.1 (Cycles
 // CPU, 512 spp, white Lambert plane, light 2 m above, orthographic camera,
@@ -26,6 +38,7 @@
 #include <vector>
 
 #include "../scene/scene.h"
+#include "world_sampling.h"
 
 namespace coherent {
 
@@ -53,19 +66,26 @@ struct LightRecord {
     float cos_half_sun = 1.0f, sun_solid_angle = 0.0f;
     AreaShape shape = AreaShape::Square;
     float half_u = 0.5f, half_v = 0.5f, area = 1.0f;
+    float pick = 0.0f;   // selection probability of this light
 };
+
+enum class LightSelection { Power, Uniform };
+
+// The share of the selection probability spread uniformly over all units.
+constexpr double kUniformShare = 0.1;
 
 class LightSet {
 public:
     LightSet() = default;
-    explicit LightSet(const Scene& scene);
+    explicit LightSet(const Scene& scene, LightSelection selection = LightSelection::Power);
 
     bool empty() const { return units_ == 0; }
     bool has_world() const { return world_; }
 
     // Samples one emitter for shading point p with shading normal n (facing
     // the viewer). `transmissive` selects uniform-sphere instead of cosine
-    // sampling for the world (the BSDF can see the lower hemisphere).
+    // sampling for a constant world (the BSDF can see the lower hemisphere);
+    // an environment map is sampled by its own distribution either way.
     bool sample(const Vec3f& p, const Vec3f& n, bool transmissive, float u_pick, float u1, float u2, LightSample& ls) const;
 
     // Emission picked up by a bounce ray o + t d (unit d), t < tmax, from
@@ -79,7 +99,16 @@ public:
     // emissive triangle `tri` (unit normal n_light) from `o`.
     float triangle_pdf(uint32_t tri, const Vec3f& o, const Vec3f& p_light, const Vec3f& n_light) const;
 
-    const Vec3f& world_color() const { return world_color_; }
+    // World radiance in direction d (camera rays that miss everything).
+    Vec3f world_radiance(const Vec3f& d) const;
+
+    // Selection probabilities (tests, statistics): analytic light i in the
+    // order of the scene's emitting lights, the emissive triangles as a
+    // whole, the world. 0 for a unit that does not exist.
+    size_t light_count() const { return lights_.size(); }
+    float light_pick(size_t i) const { return lights_[i].pick; }
+    float triangles_pick() const { return tri_unit_pick_; }
+    float world_pick() const { return world_pick_; }
 
 private:
     float world_pdf(const Vec3f& d, const Vec3f& n, bool transmissive) const;
@@ -87,15 +116,22 @@ private:
     bool sample_world(const Vec3f& n, bool transmissive, float u1, float u2, LightSample& ls) const;
     // The emissive triangles' pick distribution (tri_*), by power.
     void pick_triangles_by_power(const Scene& scene);
+    // The units' probabilities (LightRecord::pick, tri_unit_pick_, world_pick_,
+    // unit_cdf_) from their importance, in unit order.
+    void choose_unit_probabilities(const std::vector<double>& importance, LightSelection selection);
 
     const Scene* scene_ = nullptr;
     std::vector<LightRecord> lights_;
-    // Selection: each analytic light, the set of emissive triangles and the
-    // world each form one unit of equal probability.
+    // Selection over units: lights_, then the triangles, then the world.
     int units_ = 0;
-    float unit_pdf_ = 0.0f;
+    bool uniform_ = true;            // pick by u * units_ (bit-identical to the selection before importance)
+    std::vector<float> unit_cdf_;    // inclusive prefix sums of the units' picks, last == 1
+    float tri_unit_pick_ = 0.0f, world_pick_ = 0.0f;
     bool triangles_ = false, world_ = false;
-    Vec3f world_color_{0.0f};
+    Vec3f world_color_{0.0f};        // constant radiance, or the map's strength
+    bool has_map_ = false;           // the world is world_color_ x env_ (black if env_ is empty)
+    EnvironmentSampler env_;
+    double total_triangle_power_ = 0.0;  // sum of area x luminance(emission)
     // Emissive triangles picked by power (area x luminance of emission).
     std::vector<uint32_t> tri_ids_;
     std::vector<float> tri_cdf_;        // inclusive prefix sums, normalised, last == 1

@@ -249,7 +249,7 @@ COHERENT_ALWAYS_INLINE void shade_miss(const PathContext& ctx, PathState& s) {
         } else if (rs.transparent_film) {
             s.out.alpha = 0.0f;
         } else {
-            s.out.radiance += clamp_contribution(ctx.lights->world_color(), -1, rs);
+            s.out.radiance += clamp_contribution(ctx.lights->world_radiance(s.ray.d), -1, rs);
         }
     } else if constexpr (kLights) {
         s.out.radiance += clamp_contribution(

@@ -417,7 +417,7 @@ void render_tiles(tbb::task_arena& arena, const TileLayout& layout, const TileJo
 
 bool Renderer::render(const ProgressCallback& progress) {
     const auto start = Clock::now();
-    const LightSet lights(scene_);
+    const LightSet lights(scene_, settings_.uniform_light_selection ? LightSelection::Uniform : LightSelection::Power);
     PathContext ctx{&scene_, bvh_.get(), &lights, &settings_};
     ctx.ao_distance = resolve_ao_distance(settings_, scene_);
     ctx.motion = motion_.empty() ? nullptr : &motion_;

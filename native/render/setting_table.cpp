@@ -165,6 +165,10 @@ std::vector<SettingSpec> light_path_rows() {
                      "0 = off"));
     t.push_back(real("clamp_indirect", "Clamp Indirect", "Light Paths", &RenderSettings::clamp_indirect, 0.0, 1e6,
                      100.0, "largest component of light after further bounces (biased); 0 = off"));
+    t.push_back(flag("uniform_light_selection", "Uniform Light Selection", "Light Paths",
+                     &RenderSettings::uniform_light_selection,
+                     "pick each light, the emissive meshes and the world with equal probability for shadow rays, "
+                     "instead of by their estimated power (comparisons; more noise)"));
     return t;
 }
 

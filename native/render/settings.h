@@ -59,6 +59,9 @@ struct RenderSettings {
     // Biased, off by default; Blender's own defaults are 0 and 10.
     float clamp_direct = 0.0f;
     float clamp_indirect = 0.0f;
+    // Next-event estimation picks emitters uniformly instead of by estimated
+    // power (light_sampling.h); the selection before importance, for comparisons.
+    bool uniform_light_selection = false;
 
     // Which random numbers paths consume (native/sample): SPT, CPT, ICPT, or
     // Auto, resolved by resolve_sampler_type() (sample/sampler_type.h): ICPT

@@ -14,6 +14,7 @@
 #include "features.h"
 #include "light.h"
 #include "material.h"
+#include "world.h"
 
 namespace coherent {
 
@@ -69,7 +70,8 @@ struct Scene {
 
     std::vector<Material> materials;    // materials[0] always exists (default grey diffuse)
     std::vector<Light> lights;
-    Vec3f world_color{0.0f, 0.0f, 0.0f};  // constant environment radiance
+    Vec3f world_color{0.0f, 0.0f, 0.0f};  // constant environment radiance, or world_map's strength
+    EnvironmentMap world_map;              // when not empty, world radiance(d) = world_color x world_map(d)
     Camera camera;
 
     DropReport dropped;

@@ -1,0 +1,129 @@
+// Environment map lookup and importance sampling. Conventions: world_sampling.h.
+#include "world_sampling.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace coherent {
+
+namespace {
+
+int wrap(int i, int n) {
+    const int r = i % n;
+    return r < 0 ? r + n : r;
+}
+
+float row_cos_elevation(int y, int height) { return std::cos(kPi * ((float(y) + 0.5f) / float(height) - 0.5f)); }
+
+// Inclusive prefix sums of w[0..n) into cdf[0..n], normalised to end at 1;
+// returns the total. A zero total gives a uniform cdf (never sampled: its
+// row or map has probability 0).
+double build_cdf(const float* w, int n, float* cdf) {
+    double sum = 0.0;
+    std::vector<double> prefix(size_t(n) + 1, 0.0);
+    for (int i = 0; i < n; ++i) prefix[size_t(i) + 1] = sum += double(w[i]);
+    for (int i = 0; i <= n; ++i) cdf[i] = sum > 0.0 ? float(prefix[size_t(i)] / sum) : float(i) / float(n);
+    cdf[n] = 1.0f;
+    return sum;
+}
+
+// The bin of u in cdf[0..n] and u's position within it, in [0, 1).
+int sample_cdf(const float* cdf, int n, float u, float& frac) {
+    const int i = std::clamp(int(std::upper_bound(cdf, cdf + n + 1, u) - cdf) - 1, 0, n - 1);
+    const float width = cdf[i + 1] - cdf[i];
+    frac = width > 0.0f ? std::clamp((u - cdf[i]) / width, 0.0f, 0.99999994f) : 0.5f;
+    return i;
+}
+
+}  // namespace
+
+Vec2f direction_to_equirect(const Vec3f& d) {
+    return {0.5f - std::atan2(d.y, d.x) / (2.0f * kPi),
+            0.5f + std::atan2(d.z, std::sqrt(d.x * d.x + d.y * d.y)) / kPi};
+}
+
+Vec3f equirect_to_direction(float u, float v) {
+    const float phi = 2.0f * kPi * (0.5f - u), elevation = kPi * (v - 0.5f);
+    const float c = std::cos(elevation);
+    return {c * std::cos(phi), c * std::sin(phi), std::sin(elevation)};
+}
+
+EnvironmentSampler::EnvironmentSampler(const EnvironmentMap& map) {
+    if (map.empty()) return;
+    const int w = map.width, h = map.height;
+    std::vector<float> lum(size_t(w) * size_t(h));
+    double integral = 0.0;  // of luminance over the sphere, / (2 pi^2 / (w h))
+    for (int y = 0; y < h; ++y) {
+        const double c = row_cos_elevation(y, h);
+        for (int x = 0; x < w; ++x) {
+            const float l = luminance(map.texel(x, y));
+            lum[size_t(y) * size_t(w) + size_t(x)] = std::isfinite(l) ? std::max(l, 0.0f) : 0.0f;
+            integral += c * double(lum[size_t(y) * size_t(w) + size_t(x)]);
+        }
+    }
+    weight_.assign(lum.size(), 0.0f);
+    for (int y = 0; y < h; ++y) {
+        const float c = row_cos_elevation(y, h);
+        for (int x = 0; x < w; ++x) {
+            float m = 0.0f;
+            for (int dy = -1; dy <= 1; ++dy)
+                for (int dx = -1; dx <= 1; ++dx)
+                    m = std::max(m, lum[size_t(wrap(y + dy, h)) * size_t(w) + size_t(wrap(x + dx, w))]);
+            weight_[size_t(y) * size_t(w) + size_t(x)] = m * c;
+        }
+    }
+    column_cdf_.resize(size_t(h) * size_t(w + 1));
+    std::vector<float> row_sums(static_cast<size_t>(h));
+    double total = 0.0;
+    for (int y = 0; y < h; ++y) {
+        row_sums[size_t(y)] = float(build_cdf(&weight_[size_t(y) * size_t(w)], w, &column_cdf_[size_t(y) * size_t(w + 1)]));
+        total += row_sums[size_t(y)];
+    }
+    if (!(total > 0.0) || !std::isfinite(total)) return;  // black: nothing to sample
+    row_cdf_.resize(size_t(h) + 1);
+    build_cdf(row_sums.data(), h, row_cdf_.data());
+    inv_mean_weight_ = float(double(w) * double(h) / total);
+    mean_luminance_ = float(integral * (2.0 * kPi * kPi / (double(w) * double(h))) / (4.0 * kPi));
+    map_ = &map;
+}
+
+Vec3f EnvironmentSampler::eval(const Vec3f& d) const {
+    const Vec2f uv = direction_to_equirect(map_->to_map(d));
+    const int w = map_->width, h = map_->height;
+    const float x = uv.x * float(w) - 0.5f, y = uv.y * float(h) - 0.5f;
+    const float fx = std::floor(x), fy = std::floor(y);
+    const float tx = x - fx, ty = y - fy;
+    const int x0 = wrap(int(fx), w), y0 = wrap(int(fy), h);
+    const int x1 = wrap(x0 + 1, w), y1 = wrap(y0 + 1, h);
+    return (map_->texel(x0, y0) * (1.0f - tx) + map_->texel(x1, y0) * tx) * (1.0f - ty) +
+           (map_->texel(x0, y1) * (1.0f - tx) + map_->texel(x1, y1) * tx) * ty;
+}
+
+float EnvironmentSampler::texel_pdf_uv(int x, int y) const {
+    return weight_[size_t(y) * size_t(map_->width) + size_t(x)] * inv_mean_weight_;
+}
+
+bool EnvironmentSampler::sample(float u1, float u2, Vec3f& d, float& pdf) const {
+    const int w = map_->width, h = map_->height;
+    float fy, fx;
+    const int y = sample_cdf(row_cdf_.data(), h, u1, fy);
+    const int x = sample_cdf(&column_cdf_[size_t(y) * size_t(w + 1)], w, u2, fx);
+    const float u = (float(x) + fx) / float(w), v = (float(y) + fy) / float(h);
+    const float cos_elevation = std::cos(kPi * (v - 0.5f));
+    if (!(cos_elevation > 0.0f)) return false;
+    d = map_->from_map(equirect_to_direction(u, v));
+    pdf = texel_pdf_uv(x, y) / (2.0f * kPi * kPi * cos_elevation);
+    return pdf > 0.0f && std::isfinite(pdf);
+}
+
+float EnvironmentSampler::pdf(const Vec3f& d) const {
+    const Vec3f m = map_->to_map(d);
+    const Vec2f uv = direction_to_equirect(m);
+    const int w = map_->width, h = map_->height;
+    const int x = std::clamp(int(uv.x * float(w)), 0, w - 1), y = std::clamp(int(uv.y * float(h)), 0, h - 1);
+    const float cos_elevation = std::cos(kPi * (uv.y - 0.5f));
+    if (!(cos_elevation > 0.0f)) return 0.0f;
+    return texel_pdf_uv(x, y) / (2.0f * kPi * kPi * cos_elevation);
+}
+
+}  // namespace coherent
