@@ -208,6 +208,7 @@ private:
         if (packet_coherence(pk_) >= min_coherence_) {
             PacketCounters pc = packet_counters();
             bvh_.intersect(pk_, scratch_.hits, &pc);
+            if (ctx_.instances) ctx_.instances->intersect(pk_, scratch_.hits, &pc);
             book_packet(bounce, type, pc);
         } else {
             intersect_singly(bounce, type);
@@ -231,6 +232,7 @@ private:
         if (packet_coherence(pk_) >= min_coherence_) {
             PacketCounters pc = packet_counters();
             bvh_.occluded(pk_, scratch_.occluded, &pc);
+            if (ctx_.instances) ctx_.instances->occluded(pk_, scratch_.occluded, &pc);
             book_packet(bounce, RayType::Shadow, pc);
         } else {
             occluded_singly(bounce);
@@ -250,11 +252,13 @@ private:
         for (int i = 0; i < pk_.size; ++i) {
             TraversalCounters c;
             Hit h;
-            if (bvh_.intersect(pk_.ray(i), h, &c)) {
+            const Ray r = pk_.ray(i);
+            if (merge_instance_hit(ctx_, r, bvh_.intersect(r, h, &c), h, &c)) {
                 scratch_.hits.t[i] = h.t;
                 scratch_.hits.u[i] = h.u;
                 scratch_.hits.v[i] = h.v;
                 scratch_.hits.prim[i] = h.prim;
+                scratch_.hits.instance[i] = h.instance;
             }
             book_single_ray(st_, bounce, type, c, lane_node_visits(i));
         }
@@ -262,7 +266,8 @@ private:
     void occluded_singly(int bounce) {
         for (int i = 0; i < pk_.size; ++i) {
             TraversalCounters c;
-            if (bvh_.occluded(pk_.ray(i), &c)) scratch_.occluded.set(i);
+            const Ray r = pk_.ray(i);
+            if (bvh_.occluded(r, &c) || instance_occluded(ctx_, r, &c)) scratch_.occluded.set(i);
             book_single_ray(st_, bounce, RayType::Shadow, c, lane_node_visits(i));
         }
     }
@@ -353,6 +358,7 @@ bool extend(const PathContext& ctx, PathTile& tile, StreamScratch& scratch, Rend
     StreamStats ss;
     intersect_stream(*ctx.bvh, scratch.rays.data(), scratch.rays.size(), scratch.hits.data(), &ss,
                      tile_stream_options());
+    if (ctx.instances) ctx.instances->intersect_stream(scratch.rays.data(), scratch.rays.size(), scratch.hits.data(), &ss);
     for (const int p : scratch.path) book_rays(st, bounce, tile.states[size_t(p)].type, 1);
     book_stream_work(st, bounce, ss);
     TraversalCounters motion;
@@ -381,6 +387,8 @@ inline void occlude(const PathContext& ctx, PathTile& tile, StreamScratch& scrat
     StreamStats ss;
     occluded_stream(*ctx.bvh, scratch.rays.data(), scratch.rays.size(), scratch.occluded.data(), &ss,
                     tile_stream_options());
+    if (ctx.instances)
+        ctx.instances->occluded_stream(scratch.rays.data(), scratch.rays.size(), scratch.occluded.data(), &ss);
     book_rays(st, bounce, RayType::Shadow, scratch.rays.size());
     book_stream_work(st, bounce, ss);
     if (ctx.motion) {

@@ -302,6 +302,11 @@ Renderer::Renderer(const Scene& scene, const RenderSettings& settings, std::shar
     }
     if (!scene_.moving_triangles.empty())
         motion_.build(scene_.vertices, scene_.motion_vertices, scene_.moving_triangles);
+    if (!scene_.instances.empty()) {
+        BvhBuildOptions options;
+        options.width = settings_.bvh_width;
+        instances_.build(scene_, options);
+    }
     bvh_ = std::move(bvh);
     film_ = Film(settings_.border_width(), settings_.border_height());
     if (settings_.heatmaps) film_.enable_heatmaps();
@@ -408,6 +413,7 @@ bool Renderer::render(const ProgressCallback& progress) {
     PathContext ctx{&scene_, bvh_.get(), &lights, &settings_};
     ctx.ao_distance = resolve_ao_distance(settings_, scene_);
     ctx.motion = motion_.empty() ? nullptr : &motion_;
+    ctx.instances = instances_.empty() ? nullptr : &instances_;
     const SamplerConfig samplers = sampler_config(settings_);
     const KernelFeatures kernel = kernel_features(settings_, features_, lights);
     std::unique_ptr<WavefrontPool> wavefront;

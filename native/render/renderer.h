@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "../accel/bvh.h"
+#include "../accel/instance_bvh.h"
 #include "../accel/motion_bvh.h"
 #include "../film/film.h"
 #include "../scene/scene.h"
@@ -63,6 +64,7 @@ public:
     const RenderStats& stats() const { return stats_; }
     const SceneFeatures& active_features() const { return features_; }
     const Bvh& bvh() const { return *bvh_; }
+    const InstanceBvh& instance_bvh() const { return instances_; }
     // The BVH, for handing on to the next Renderer over the same triangles.
     const std::shared_ptr<const Bvh>& shared_bvh() const { return bvh_; }
 
@@ -72,6 +74,9 @@ private:
     // Object motion blur: the moving triangles (empty when nothing moves);
     // they are left out of bvh_.
     MotionBvh motion_;
+    // Shared geometry (scene.instances): the two-level BVH's top level and
+    // the prototypes' BVHs; empty when the scene has no instances.
+    InstanceBvh instances_;
     SceneFeatures features_;
     std::shared_ptr<const Bvh> bvh_;  // never null after construction
     Film film_;

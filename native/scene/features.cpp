@@ -41,6 +41,9 @@ SceneFeatures compute_features(const Scene& scene) {
     std::vector<uint8_t> used(scene.materials.size(), 0);
     for (uint32_t m : scene.material_of)
         if (m < used.size()) used[m] = 1;
+    used[0] = used[0] || !scene.instances.empty();  // slots past an instance's own use the default
+    for (uint32_t m : scene.instance_materials)
+        if (m < used.size()) used[m] = 1;
 
     for (size_t i = 0; i < scene.materials.size(); ++i) {
         if (!used[i]) continue;
