@@ -4,7 +4,10 @@
 Geometry goes through numpy arrays filled by `foreach_get` (no Python loop over
 vertices or triangles). Triangle arrays are extracted once per mesh datablock
 and reused for every instance of it (linked duplicates, collection instances,
-Geometry Nodes instances); each instance only contributes its transform.
+Geometry Nodes instances); each instance only contributes its transform. A
+mesh placed more than once is sent to the native scene once, as a prototype
+that keeps its own BVH, and its placements as one (K, 4, 4) array of matrices
+(Scene.add_instances): memory grows with unique triangles plus instances.
 
 Conventions: Blender is Z-up and right-handed, a camera looks down its local
 -Z axis with +Y up, lights point along their local -Z axis. Matrices are
@@ -16,6 +19,7 @@ from __future__ import annotations
 
 import math
 import time
+from itertools import chain
 
 import numpy as np
 
@@ -169,6 +173,41 @@ class ExportResult:
         self.lights = 0
 
 
+class InstanceGroup:
+    """Placements of one object's triangles with one set of materials.
+
+    Each placement costs one matrix copy in a list; the list becomes one
+    float32 array when the group is added to the scene.
+    """
+
+    __slots__ = ("arrays", "mesh_key", "name", "slots", "material_ids", "matrices")
+
+    def __init__(self, arrays, mesh_key, name, slots, material_ids):
+        self.arrays = arrays
+        self.mesh_key = mesh_key
+        self.name = name
+        self.slots = slots
+        self.material_ids = material_ids
+        self.matrices = []
+
+    def matrix_array(self):
+        """The placements as a (K, 4, 4) float32 array (rows of each matrix in order)."""
+        count = len(self.matrices)
+        flat = np.fromiter(chain.from_iterable(chain.from_iterable(self.matrices)), np.float32, count=16 * count)
+        return flat.reshape(count, 4, 4)
+
+    def prototype_slots(self):
+        """Slots for the shared mesh, whose triangles keep their material indices.
+
+        Blender clamps an index past the last slot to the last slot, and a
+        single slot applies to every face: padding with the last slot does both.
+        """
+        if not self.slots:
+            return []
+        needed = self.arrays.max_material_index + 1
+        return self.slots + [self.slots[-1]] * max(0, needed - len(self.slots))
+
+
 class SceneExporter:
     """Converts one evaluated depsgraph into a native Scene."""
 
@@ -188,6 +227,8 @@ class SceneExporter:
         self.mesh_cache = mesh_cache if mesh_cache is not None else MeshCache()
         self.used_keys = set()  # mesh_cache keys this export rendered
         self._unsupported_types = set()
+        # (original object, evaluated data) -> InstanceGroup, or None when it has no triangles
+        self._groups = {}
 
     def export(self, cancelled=lambda: False):
         start = time.perf_counter()
@@ -210,7 +251,7 @@ class SceneExporter:
             if kind == "MESH":
                 if inst.is_instance and inst.parent is not None:
                     covered.add(_original_pointer(inst.parent))
-                self._export_mesh_instance(inst, ob, np.array(inst.matrix_world, dtype=np.float32))
+                self._export_mesh_instance(inst, ob, inst.matrix_world)
             elif kind in _MESH_TYPES:
                 if not inst.is_instance:
                     pending[_original_pointer(ob)] = (ob, np.array(inst.matrix_world, dtype=np.float32))
@@ -225,6 +266,7 @@ class SceneExporter:
         for key, (ob, matrix) in pending.items():
             if key not in covered:
                 self._export_mesh_instance(None, ob, matrix)
+        self._add_instance_groups()
 
         self.result.scene.world_color = materials.world_color(bscene.world, self.result.warnings)
         summary = self.result.scene.dropped_summary
@@ -260,12 +302,9 @@ class SceneExporter:
             self.result.meshes += 1
         return arrays
 
-    def _export_mesh_instance(self, inst, ob, matrix):
-        arrays = self._mesh_for(ob)
-        if arrays is None:
-            return
-        # Slot -> native material, resolved per instance: objects sharing a mesh
-        # may link different materials to their slots.
+    def _material_binding(self, ob, arrays):
+        """(slots, material_ids) for add_mesh: slot -> native material, resolved
+        per object (objects sharing a mesh may link different materials)."""
         slots = [self.materials.index_of(slot.material) for slot in ob.material_slots]
         if not slots and ob.data is not None and hasattr(ob.data, "materials"):
             slots = [self.materials.index_of(m) for m in ob.data.materials]
@@ -277,19 +316,74 @@ class SceneExporter:
                 material_ids = np.minimum(material_ids, len(slots) - 1)
         elif slots:
             slots = slots[:1]
+        return slots, material_ids
 
-        name = ob.name
-        if inst is not None and inst.is_instance and inst.parent is not None and inst.parent.name != ob.name:
-            name = f"{inst.parent.name}/{ob.name}"
-        matrix_close = None
+    def _group_for(self, inst, ob):
+        """The InstanceGroup of this object's triangles and materials (None if it has none).
+
+        Keyed by the original object and the evaluated data: the two decide
+        the triangles and the material slots, while the evaluated object
+        itself may be a temporary that Blender reuses for every instance.
+        """
+        data = ob.data
+        key = (_original_pointer(ob), data.as_pointer() if data is not None else 0)
+        try:
+            return self._groups[key]
+        except KeyError:
+            pass
+        arrays = self._mesh_for(ob)
+        group = None
+        if arrays is not None:
+            name = ob.name
+            if inst is not None and inst.is_instance and inst.parent is not None and inst.parent.name != ob.name:
+                name = f"{inst.parent.name}/{ob.name}"
+            slots, material_ids = self._material_binding(ob, arrays)
+            group = InstanceGroup(arrays, mesh_cache_key(ob), name, slots, material_ids)
+        self._groups[key] = group
+        return group
+
+    def _export_mesh_instance(self, inst, ob, matrix):
+        """Queues one placement (`matrix`: object to world, a Matrix or a 4x4 array)."""
+        group = self._group_for(inst, ob)
+        if group is None:
+            return
         if self.motion:
             moving = self.motion.get(motion.instance_key(inst, ob))
-            if moving is not None:
-                matrix, matrix_close = moving
-        self.result.scene.add_mesh(name, arrays.positions, arrays.indices, matrix,
-                                   normals=arrays.normals, material_ids=material_ids, material_slots=slots,
-                                   matrix_close=matrix_close)
+            if moving is not None:  # moving instances are world-space triangles with their motion
+                self._add_flattened(group, *moving)
+                return
+        group.matrices.append(matrix.copy())
+
+    def _add_flattened(self, group, matrix, matrix_close=None):
+        arrays = group.arrays
+        self.result.scene.add_mesh(group.name, arrays.positions, arrays.indices, np.asarray(matrix, dtype=np.float32),
+                                   normals=arrays.normals, material_ids=group.material_ids,
+                                   material_slots=group.slots, matrix_close=matrix_close)
         self.result.instances += 1
+
+    def _add_instance_groups(self):
+        """Adds the queued placements: a mesh placed once as world-space
+        triangles (as without instancing), else once as a prototype plus a
+        matrix per placement."""
+        scene = self.result.scene
+        prototypes = {}  # mesh_cache_key -> prototype index
+        for group in self._groups.values():
+            if group is None or not group.matrices:
+                continue
+            if len(group.matrices) == 1:
+                self._add_flattened(group, group.matrices[0])
+                continue
+            arrays = group.arrays
+            proto = prototypes.get(group.mesh_key)
+            if proto is None:
+                proto = scene.add_prototype(group.name, arrays.positions, arrays.indices, normals=arrays.normals,
+                                            material_ids=arrays.material_index)
+                prototypes[group.mesh_key] = proto
+            if proto >= 0:
+                scene.add_instances(proto, group.matrix_array(), material_slots=group.prototype_slots(),
+                                    name=group.name)
+            self.result.instances += len(group.matrices)
+            group.matrices = []
 
     # -- lights -----------------------------------------------------------------
 
