@@ -177,10 +177,12 @@ class InstanceGroup:
     """Placements of one object's triangles with one set of materials.
 
     Each placement costs one matrix copy in a list; the list becomes one
-    float32 array when the group is added to the scene.
+    float32 array when the group is added to the scene. With motion blur,
+    `closes` holds every placement's transform at shutter close (the open one
+    for those that stand still) once any placement moves.
     """
 
-    __slots__ = ("arrays", "mesh_key", "name", "slots", "material_ids", "matrices")
+    __slots__ = ("arrays", "mesh_key", "name", "slots", "material_ids", "matrices", "closes")
 
     def __init__(self, arrays, mesh_key, name, slots, material_ids):
         self.arrays = arrays
@@ -189,11 +191,20 @@ class InstanceGroup:
         self.slots = slots
         self.material_ids = material_ids
         self.matrices = []
+        self.closes = None
 
-    def matrix_array(self):
-        """The placements as a (K, 4, 4) float32 array (rows of each matrix in order)."""
-        count = len(self.matrices)
-        flat = np.fromiter(chain.from_iterable(chain.from_iterable(self.matrices)), np.float32, count=16 * count)
+    def add(self, matrix, close=None):
+        self.matrices.append(matrix.copy())
+        if close is not None and self.closes is None:
+            self.closes = self.matrices[:-1]  # the earlier placements stand still
+        if self.closes is not None:
+            self.closes.append(self.matrices[-1] if close is None else close)
+
+    @staticmethod
+    def matrix_array(matrices):
+        """Matrices as a (K, 4, 4) float32 array (rows of each matrix in order)."""
+        count = len(matrices)
+        flat = np.fromiter(chain.from_iterable(chain.from_iterable(matrices)), np.float32, count=16 * count)
         return flat.reshape(count, 4, 4)
 
     def prototype_slots(self):
@@ -349,10 +360,10 @@ class SceneExporter:
             return
         if self.motion:
             moving = self.motion.get(motion.instance_key(inst, ob))
-            if moving is not None:  # moving instances are world-space triangles with their motion
-                self._add_flattened(group, *moving)
+            if moving is not None:
+                group.add(*moving)
                 return
-        group.matrices.append(matrix.copy())
+        group.add(matrix)
 
     def _add_flattened(self, group, matrix, matrix_close=None):
         arrays = group.arrays
@@ -371,7 +382,7 @@ class SceneExporter:
             if group is None or not group.matrices:
                 continue
             if len(group.matrices) == 1:
-                self._add_flattened(group, group.matrices[0])
+                self._add_flattened(group, group.matrices[0], group.closes[0] if group.closes else None)
                 continue
             arrays = group.arrays
             proto = prototypes.get(group.mesh_key)
@@ -380,8 +391,9 @@ class SceneExporter:
                                             material_ids=arrays.material_index)
                 prototypes[group.mesh_key] = proto
             if proto >= 0:
-                scene.add_instances(proto, group.matrix_array(), material_slots=group.prototype_slots(),
-                                    name=group.name)
+                closes = None if group.closes is None else group.matrix_array(group.closes)
+                scene.add_instances(proto, group.matrix_array(group.matrices), material_slots=group.prototype_slots(),
+                                    name=group.name, matrices_close=closes)
             self.result.instances += len(group.matrices)
             group.matrices = []
 

@@ -75,6 +75,7 @@ void InstanceBvh::build(const Scene& scene, const BvhBuildOptions& options) {
     prototypes_.resize(scene.prototypes.size());
     placements_.clear();
     placements_.reserve(scene.instances.size());
+    motions_.clear();
     std::vector<BBox> boxes;
     boxes.reserve(scene.instances.size());
     for (const Instance& inst : scene.instances) {
@@ -83,7 +84,12 @@ void InstanceBvh::build(const Scene& scene, const BvhBuildOptions& options) {
             bvh = std::make_unique<Bvh>();
             bvh->build(scene.prototypes[inst.prototype].vertices, options);
         }
-        placements_.push_back({inst.world_to_object, inst.prototype});
+        uint32_t motion = kStillInstance;
+        if (inst.motion != kStillInstance) {
+            motion = uint32_t(motions_.size());
+            motions_.push_back({inst.object_to_world, scene.instance_close[inst.motion]});
+        }
+        placements_.push_back({inst.world_to_object, inst.prototype, motion});
         boxes.push_back(inst.world_bounds);
     }
     // Leaves of one or two instances: an instance is a whole BVH behind a
@@ -94,6 +100,16 @@ void InstanceBvh::build(const Scene& scene, const BvhBuildOptions& options) {
     top.traversal_cost = 1.0f;
     top.intersection_cost = 4.0f;
     build_box_tree(boxes, top, top_, order_);
+}
+
+Ray InstanceBvh::to_object(uint32_t inst, const Ray& ray, float time) const {
+    const Placement& p = placements_[inst];
+    if (p.motion == kStillInstance) return ray_to_object(p.world_to_object, ray);
+    const Motion& m = motions_[p.motion];
+    Transform world_to_object;
+    // Singular mid-shutter (a flip): the ray becomes invalid and hits nothing there.
+    if (!invert_affine(instance_transform_at(m.open, m.close, time), world_to_object)) world_to_object.m[0][0] = NAN;
+    return ray_to_object(world_to_object, ray);
 }
 
 size_t InstanceBvh::bytes() const {
@@ -134,13 +150,13 @@ void InstanceBvh::visit_instances(const Ray& ray, float tmax, Visit&& visit, uin
     }
 }
 
-bool InstanceBvh::intersect(const Ray& ray, Hit& hit, TraversalCounters* counters) const {
+bool InstanceBvh::intersect(const Ray& ray, Hit& hit, TraversalCounters* counters, float time) const {
     TraversalCounters work;
     bool replaced = false;
     visit_instances(
         ray, std::min(ray.tmax, hit.t),
         [&](uint32_t inst, float tmax) {
-            Ray r = ray_to_object(placements_[inst].world_to_object, ray);
+            Ray r = to_object(inst, ray, time);
             r.tmax = tmax;
             Hit h;
             if (prototypes_[placements_[inst].prototype]->intersect(r, h, &work)) {
@@ -158,13 +174,13 @@ bool InstanceBvh::intersect(const Ray& ray, Hit& hit, TraversalCounters* counter
     return replaced;
 }
 
-bool InstanceBvh::occluded(const Ray& ray, TraversalCounters* counters) const {
+bool InstanceBvh::occluded(const Ray& ray, TraversalCounters* counters, float time) const {
     TraversalCounters work;
     bool blocked = false;
     visit_instances(
         ray, ray.tmax,
         [&](uint32_t inst, float tmax) {
-            const Ray r = ray_to_object(placements_[inst].world_to_object, ray);
+            const Ray r = to_object(inst, ray, time);
             blocked = prototypes_[placements_[inst].prototype]->occluded(r, &work);
             return blocked ? -1.0f : tmax;
         },
@@ -204,7 +220,7 @@ void for_each_lane(const uint32_t mask[kPacketMaskWords], F&& f) {
 
 template <bool kAnyHit>
 void InstanceBvh::trace_packet(const RayPacket& pk, HitPacket* hits, OcclusionMask* occluded,
-                               PacketCounters* counters) const {
+                               PacketCounters* counters, const float* times) const {
     if (top_.empty() || pk.size == 0) return;
     PacketLanes lanes;
     for (int i = 0; i < pk.size; ++i) {
@@ -225,7 +241,7 @@ void InstanceBvh::trace_packet(const RayPacket& pk, HitPacket* hits, OcclusionMa
         sc.rays.size = pk.size;
         std::copy(mask, mask + kPacketMaskWords, sc.rays.active);
         for_each_lane(mask, [&](int l) {
-            Ray r = ray_to_object(pl.world_to_object, pk.ray(l));
+            Ray r = to_object(inst, pk.ray(l), times ? times[l] : 0.0f);
             r.tmax = lanes.best[l];
             sc.rays.set(l, r);
         });
@@ -289,12 +305,14 @@ void InstanceBvh::trace_packet(const RayPacket& pk, HitPacket* hits, OcclusionMa
     add_work(counters, work);  // ray_node_visits was counted in place
 }
 
-void InstanceBvh::intersect(const RayPacket& packet, HitPacket& hits, PacketCounters* counters) const {
-    trace_packet<false>(packet, &hits, nullptr, counters);
+void InstanceBvh::intersect(const RayPacket& packet, HitPacket& hits, PacketCounters* counters,
+                            const float* times) const {
+    trace_packet<false>(packet, &hits, nullptr, counters, times);
 }
 
-void InstanceBvh::occluded(const RayPacket& packet, OcclusionMask& occluded, PacketCounters* counters) const {
-    trace_packet<true>(packet, nullptr, &occluded, counters);
+void InstanceBvh::occluded(const RayPacket& packet, OcclusionMask& occluded, PacketCounters* counters,
+                           const float* times) const {
+    trace_packet<true>(packet, nullptr, &occluded, counters, times);
 }
 
 // --- streams: each ray's instances gathered first, then one stream per instance ---
@@ -324,7 +342,8 @@ StreamOptions one_slice() {
 }  // namespace
 
 template <bool kAnyHit>
-void InstanceBvh::trace_stream(const Ray* rays, size_t n, Hit* hits, uint8_t* occluded, StreamStats* stats) const {
+void InstanceBvh::trace_stream(const Ray* rays, size_t n, Hit* hits, uint8_t* occluded, StreamStats* stats,
+                               const float* times) const {
     if (top_.empty() || n == 0) return;
     StreamScratch& sc = stream_scratch();
     sc.visits.clear();
@@ -349,7 +368,7 @@ void InstanceBvh::trace_stream(const Ray* rays, size_t n, Hit* hits, uint8_t* oc
         for (e = b; e < sc.visits.size() && uint32_t(sc.visits[e] >> 32) == inst; ++e) {
             const uint32_t i = uint32_t(sc.visits[e]);
             if (kAnyHit && occluded[i]) continue;
-            Ray r = ray_to_object(placements_[inst].world_to_object, rays[i]);
+            Ray r = to_object(inst, rays[i], times ? times[i] : 0.0f);
             if constexpr (!kAnyHit) r.tmax = std::min(rays[i].tmax, hits[i].t);
             sc.rays.push_back(r);
             sc.source.push_back(i);
@@ -376,12 +395,14 @@ void InstanceBvh::trace_stream(const Ray* rays, size_t n, Hit* hits, uint8_t* oc
     add_work(stats, work);
 }
 
-void InstanceBvh::intersect_stream(const Ray* rays, size_t n, Hit* hits, StreamStats* stats) const {
-    trace_stream<false>(rays, n, hits, nullptr, stats);
+void InstanceBvh::intersect_stream(const Ray* rays, size_t n, Hit* hits, StreamStats* stats,
+                                   const float* times) const {
+    trace_stream<false>(rays, n, hits, nullptr, stats, times);
 }
 
-void InstanceBvh::occluded_stream(const Ray* rays, size_t n, uint8_t* occluded, StreamStats* stats) const {
-    trace_stream<true>(rays, n, nullptr, occluded, stats);
+void InstanceBvh::occluded_stream(const Ray* rays, size_t n, uint8_t* occluded, StreamStats* stats,
+                                  const float* times) const {
+    trace_stream<true>(rays, n, nullptr, occluded, stats, times);
 }
 
 }  // namespace coherent

@@ -268,7 +268,8 @@ static_assert(sizeof(Transform) == 16 * sizeof(float), "a (K, 4, 4) float32 arra
 
 // Scene.add_instances: one prototype placed by K matrices, read in place.
 size_t add_instances(PyScene& self, int64_t prototype, const py::handle& matrices_obj,
-                     const py::handle& material_slots_obj, const std::string& name) {
+                     const py::handle& material_slots_obj, const std::string& name,
+                     const py::handle& matrices_close_obj) {
     self.check_mutable("add_instances");
     if (prototype < 0 || size_t(prototype) >= self.scene.prototypes.size())
         throw py::value_error("prototype: " + std::to_string(prototype) + " does not exist (scene has " +
@@ -276,10 +277,17 @@ size_t add_instances(PyScene& self, int64_t prototype, const py::handle& matrice
     FloatArray matrices = float_array(matrices_obj, {-1, 4, 4}, "matrices", "(K, 4, 4)");
     const std::vector<uint32_t> slots = read_material_slots(self, material_slots_obj);
     const auto* transforms = reinterpret_cast<const Transform*>(matrices.data());
+    FloatArray close;
+    const Transform* close_transforms = nullptr;
+    if (!matrices_close_obj.is_none()) {
+        close = float_array(matrices_close_obj, {matrices.shape(0), 4, 4}, "matrices_close", "(K, 4, 4) as matrices");
+        close_transforms = reinterpret_cast<const Transform*>(close.data());
+    }
     size_t placed;
     {
         py::gil_scoped_release unlocked;
-        placed = self.scene.add_instances(uint32_t(prototype), transforms, size_t(matrices.shape(0)), slots, name);
+        placed = self.scene.add_instances(uint32_t(prototype), transforms, size_t(matrices.shape(0)), slots, name,
+                                          close_transforms);
     }
     self.finalized = false;
     self.bvh.reset();
@@ -526,10 +534,12 @@ instance maps to scene materials (add_instances). Returns the prototype's
 index, or -1 when no triangle was usable (reported in `dropped`).
 )doc")
         .def("add_instances", &add_instances, py::arg("prototype"), py::arg("matrices"),
-             py::arg("material_slots") = py::none(), py::arg("name") = "",
+             py::arg("material_slots") = py::none(), py::arg("name") = "", py::arg("matrices_close") = py::none(),
              R"doc(Places prototype `prototype` once per row-major object-to-world matrix.
 
 matrices: float (K, 4, 4); material_slots: scene material per slot (as add_mesh).
+matrices_close: optional float (K, 4, 4), the transforms at shutter close
+(motion blur): instance k moves from matrices[k] to matrices_close[k].
 Instances with a non-invertible matrix are skipped (reported in `dropped`);
 instances of an emissive material become world-space triangles. Returns
 the number of instances placed.

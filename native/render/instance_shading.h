@@ -45,21 +45,38 @@ inline Vec3f abs_linear(const Transform& t, const Vec3f& e) {
     return out;
 }
 
-inline InstancedPoint instanced_point(const Scene& scene, const Hit& hit) {
+// The instance's transforms at shutter time `time`: its own when it stands
+// still, else computed as InstanceBvh computes them for the ray.
+struct InstanceFrame {
+    Transform to_world, to_object, normals;
+};
+
+inline InstanceFrame instance_frame(const Scene& scene, const Instance& inst, float time) {
+    if (inst.motion == kStillInstance) return {inst.object_to_world, inst.world_to_object, inst.normal_to_world};
+    InstanceFrame f;
+    f.to_world = instance_transform_at(inst.object_to_world, scene.instance_close[inst.motion], time);
+    invert_affine(f.to_world, f.to_object);  // succeeded: the ray found this hit through it
+    f.normals = normal_transform(f.to_world);
+    return f;
+}
+
+// The hit point of a ray at shutter time `time` (0 without motion blur).
+inline InstancedPoint instanced_point(const Scene& scene, const Hit& hit, float time = 0.0f) {
     const Instance& inst = scene.instances[hit.instance];
     const Prototype& proto = scene.prototypes[inst.prototype];
     const Vec3f* v = &proto.vertices[3 * size_t(hit.prim)];
+    const InstanceFrame frame = instance_frame(scene, inst, time);
     InstancedPoint ip;
     Vec3f obj_error;
     const Vec3f p_obj = triangle_point(v[0], v[1], v[2], hit.u, hit.v, obj_error);
-    ip.p = inst.object_to_world.point(p_obj);
+    ip.p = frame.to_world.point(p_obj);
     // The world error of the point, plus what carrying a spawned origin back
     // into object space adds there (rounding of world_to_object), mapped to
     // the world: the offset must clear the surface in the space it is tested in.
-    const Vec3f back = transformed_point_error(inst.world_to_object, ip.p, Vec3f(0.0f));
-    ip.p_error = transformed_point_error(inst.object_to_world, p_obj, obj_error) +
-                 abs_linear(inst.object_to_world, back) * (1.0f + 2.0f * gamma_bound(3));
-    const Vec3f ng = inst.normal_to_world.vector(cross(v[1] - v[0], v[2] - v[0]));
+    const Vec3f back = transformed_point_error(frame.to_object, ip.p, Vec3f(0.0f));
+    ip.p_error = transformed_point_error(frame.to_world, p_obj, obj_error) +
+                 abs_linear(frame.to_world, back) * (1.0f + 2.0f * gamma_bound(3));
+    const Vec3f ng = frame.normals.vector(cross(v[1] - v[0], v[2] - v[0]));
     const float len = length(ng);
     // A transform at the edge of float range may underflow the cofactors:
     // any unit vector keeps shading finite (such a triangle is a sliver).
@@ -67,7 +84,7 @@ inline InstancedPoint instanced_point(const Scene& scene, const Hit& hit) {
     ip.has_normal = proto.has_normals[hit.prim] != 0;
     if (ip.has_normal) {
         const Vec3f* sn = &proto.normals[3 * size_t(hit.prim)];
-        ip.ns = inst.normal_to_world.vector(sn[0] * (1.0f - hit.u - hit.v) + sn[1] * hit.u + sn[2] * hit.v);
+        ip.ns = frame.normals.vector(sn[0] * (1.0f - hit.u - hit.v) + sn[1] * hit.u + sn[2] * hit.v);
     }
     const uint32_t slot = proto.slot_of[hit.prim];
     ip.material = slot < inst.material_count ? scene.instance_materials[inst.first_material + slot] : 0u;

@@ -124,13 +124,14 @@ inline bool motion_occluded(const PathContext& ctx, const PathState& s, const Ra
 // instances' closest hit of `r` into (found, hit); whether an instance
 // blocks occlusion ray `r`. Packet and stream drivers call the
 // InstanceBvh's packet and stream kernels instead.
-inline bool merge_instance_hit(const PathContext& ctx, const Ray& r, bool found, Hit& hit,
+inline bool merge_instance_hit(const PathContext& ctx, const PathState& s, const Ray& r, bool found, Hit& hit,
                                TraversalCounters* counters = nullptr) {
     if (!ctx.instances) return found;
-    return ctx.instances->intersect(r, hit, counters) || found;
+    return ctx.instances->intersect(r, hit, counters, s.time) || found;
 }
-inline bool instance_occluded(const PathContext& ctx, const Ray& r, TraversalCounters* counters = nullptr) {
-    return ctx.instances && ctx.instances->occluded(r, counters);
+inline bool instance_occluded(const PathContext& ctx, const PathState& s, const Ray& r,
+                              TraversalCounters* counters = nullptr) {
+    return ctx.instances && ctx.instances->occluded(r, counters, s.time);
 }
 
 // Integrators as continuation rules (render_modes.h): after a BSDF sample,
@@ -168,7 +169,7 @@ inline void start_path(const PathContext& ctx, const PathSampler& ps, int px, in
         lens_v = ps.get(D::kLensV);
     }
     s = PathState{};
-    if (ctx.motion) s.time = ps.get(D::kTime);
+    if (ctx.motion || (ctx.instances && ctx.instances->has_motion())) s.time = ps.get(D::kTime);
     s.ray = generate_camera_ray<kDepthOfField>(ctx.scene->camera, fx, fy, rs.width, rs.height, lens_u, lens_v).ray;
     s.type = RayType::Camera;
 }
@@ -225,7 +226,7 @@ COHERENT_ALWAYS_INLINE void orient(SurfacePoint& sp, const Ray& ray, bool has_no
 
 // A hit on an instance: the prototype's triangle carried to the world.
 COHERENT_ALWAYS_INLINE SurfacePoint instance_surface_point(const Scene& scene, const PathState& s, const Hit& hit) {
-    const InstancedPoint ip = instanced_point(scene, hit);
+    const InstancedPoint ip = instanced_point(scene, hit, s.time);
     SurfacePoint sp;
     sp.tri = kInvalidPrim;
     sp.material = ip.material;

@@ -55,9 +55,11 @@ struct TraceScratch {
     std::unique_ptr<RayPacket> packet;
     std::unique_ptr<HitPacket> hit_packet;
     std::vector<uint32_t> lane_visits;
+    std::vector<float> lane_time;  // moving instances: each lane's shutter time
 
     size_t bytes() const {
-        size_t b = capacity_bytes(order) + capacity_bytes(traced_rays) + capacity_bytes(lane_visits) + ws.bytes();
+        size_t b = capacity_bytes(order) + capacity_bytes(traced_rays) + capacity_bytes(lane_visits) +
+                   capacity_bytes(lane_time) + ws.bytes();
         if (packet) b += sizeof(RayPacket) + sizeof(HitPacket);
         return b;
     }
@@ -140,14 +142,23 @@ void trace_singly(const Bvh& bvh, const InstanceBvh* instances, const WavefrontO
         if constexpr (kOcclusion) q.flag[i] = bvh.occluded(r, cp) ? 1 : 0;
         else q.flag[i] = bvh.intersect(r, q.hits[i], cp) ? 1 : 0;
         if (instances) {
-            if constexpr (kOcclusion) q.flag[i] = q.flag[i] || instances->occluded(r, cp) ? 1 : 0;
-            else q.flag[i] = instances->intersect(r, q.hits[i], cp) || q.flag[i] ? 1 : 0;
+            const float time = b.states[q.owner[i]].time;
+            if constexpr (kOcclusion) q.flag[i] = q.flag[i] || instances->occluded(r, cp, time) ? 1 : 0;
+            else q.flag[i] = instances->intersect(r, q.hits[i], cp, time) || q.flag[i] ? 1 : 0;
         }
         if (opt.counters) {
             book_work(st, bounce, c);  // the ray itself was booked when queued
             if (per_path) b.visits[q.owner[i]] += uint32_t(c.node_visits);
         }
     }
+}
+
+// Moving instances: the shutter time of each lane's path (null when nothing moves).
+const float* lane_times(const InstanceBvh* instances, Buffers& b, const uint32_t* lane_index, int lanes) {
+    if (!instances->has_motion()) return nullptr;
+    b.trace.lane_time.resize(size_t(lanes));
+    for (int l = 0; l < lanes; ++l) b.trace.lane_time[size_t(l)] = b.states[b.queue.owner[lane_index[l]]].time;
+    return b.trace.lane_time.data();
 }
 
 // The queue's rays as SIMD packets of consecutive traced rays.
@@ -182,12 +193,12 @@ void trace_packets(const Bvh& bvh, const InstanceBvh* instances, const Wavefront
         if constexpr (kOcclusion) {
             OcclusionMask mask;
             bvh.occluded(pk, mask, pcp);
-            if (instances) instances->occluded(pk, mask, pcp);
+            if (instances) instances->occluded(pk, mask, pcp, lane_times(instances, b, lane_index, pk.size));
             for (int l = 0; l < pk.size; ++l) q.flag[lane_index[l]] = mask.test(l) ? 1 : 0;
         } else {
             hp.reset(pk.size);
             bvh.intersect(pk, hp, pcp);
-            if (instances) instances->intersect(pk, hp, pcp);
+            if (instances) instances->intersect(pk, hp, pcp, lane_times(instances, b, lane_index, pk.size));
             for (int l = 0; l < pk.size; ++l) {
                 const Hit h = hp.hit(l);
                 q.hits[lane_index[l]] = h;

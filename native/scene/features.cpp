@@ -72,7 +72,7 @@ SceneFeatures compute_features(const Scene& scene) {
 
     f.depth_of_field = scene.camera.aperture_radius > 0.0f;
     f.world_light = !is_black(scene.world_color);
-    f.motion_blur = !scene.moving_triangles.empty();
+    f.motion_blur = !scene.moving_triangles.empty() || scene.has_moving_instances();
     return f;
 }
 

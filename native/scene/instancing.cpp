@@ -8,10 +8,6 @@
 
 namespace coherent {
 
-namespace {
-
-// Inverse of the affine part of `t` (computed in double), or false when the
-// transform is singular or the inverse does not fit a float.
 bool invert_affine(const Transform& t, Transform& inv) {
     double m[3][3];
     for (int r = 0; r < 3; ++r)
@@ -40,8 +36,6 @@ bool invert_affine(const Transform& t, Transform& inv) {
     return true;
 }
 
-// The cofactor matrix of the linear part times sign(det): normals map with
-// it to the direction the inverse transpose gives (see scene.cpp).
 Transform normal_transform(const Transform& t) {
     const auto& m = t.m;
     Transform n;
@@ -60,6 +54,8 @@ Transform normal_transform(const Transform& t) {
             for (int c = 0; c < 3; ++c) n.m[r][c] = -n.m[r][c];
     return n;
 }
+
+namespace {
 
 // The world box of object box `b` under `t` (its eight corners), widened
 // by a few ulps of its magnitude so that rounding in the ray transform can
@@ -81,8 +77,8 @@ struct PrototypeMesh {
     MeshInput in;
 };
 
-PrototypeMesh as_mesh_input(const Prototype& p, const Transform& xf, const std::vector<uint32_t>& slots,
-                            const std::string& name) {
+PrototypeMesh as_mesh_input(const Prototype& p, const Transform& xf, const Transform* close,
+                            const std::vector<uint32_t>& slots, const std::string& name) {
     PrototypeMesh pm;
     pm.indices.resize(p.vertices.size());
     std::iota(pm.indices.begin(), pm.indices.end(), 0u);
@@ -97,7 +93,18 @@ PrototypeMesh as_mesh_input(const Prototype& p, const Transform& xf, const std::
     pm.in.material_ids = p.slot_of.data();
     pm.in.material_slots = slots;
     pm.in.object_to_world = xf;
+    if (close) {
+        pm.in.moves = true;
+        pm.in.object_to_world_close = *close;
+    }
     return pm;
+}
+
+bool same_transform(const Transform& a, const Transform& b) {
+    for (int r = 0; r < 3; ++r)
+        for (int c = 0; c < 4; ++c)
+            if (a.m[r][c] != b.m[r][c]) return false;
+    return true;
 }
 
 }  // namespace
@@ -141,7 +148,8 @@ uint32_t Scene::add_prototype(const MeshInput& mesh) {
 }
 
 size_t Scene::add_instances(uint32_t prototype, const Transform* transforms, size_t count,
-                            const std::vector<uint32_t>& material_slots, const std::string& name) {
+                            const std::vector<uint32_t>& material_slots, const std::string& name,
+                            const Transform* close_transforms) {
     if (prototype >= prototypes.size())
         throw std::invalid_argument("add_instances: prototype " + std::to_string(prototype) + " does not exist (scene has " +
                                     std::to_string(prototypes.size()) + ")");
@@ -155,7 +163,8 @@ size_t Scene::add_instances(uint32_t prototype, const Transform* transforms, siz
     size_t placed = 0, singular = 0;
     if (emissive) {
         for (size_t i = 0; i < count; ++i) {
-            const PrototypeMesh pm = as_mesh_input(prototypes[prototype], transforms[i], material_slots, label);
+            const Transform* close = close_transforms ? &close_transforms[i] : nullptr;
+            const PrototypeMesh pm = as_mesh_input(prototypes[prototype], transforms[i], close, material_slots, label);
             placed += add_mesh(pm.in) > 0 ? 1 : 0;
         }
         return placed;
@@ -178,6 +187,20 @@ size_t Scene::add_instances(uint32_t prototype, const Transform* transforms, siz
         inst.material_count = uint32_t(material_slots.size());
         inst.object = object;
         inst.world_bounds = transformed_bounds(prototypes[prototype].bounds, inst.object_to_world);
+        if (close_transforms && !same_transform(close_transforms[i], inst.object_to_world)) {
+            const Transform& close = close_transforms[i];
+            Transform inv;
+            if (!invert_affine(close, inv) ||
+                !invert_affine(instance_transform_at(inst.object_to_world, close, 0.5f), inv)) {
+                ++singular;
+                continue;
+            }
+            // Each object point moves on a segment between its two world
+            // positions: the two boxes' union holds it all shutter long.
+            inst.world_bounds.expand(transformed_bounds(prototypes[prototype].bounds, close));
+            inst.motion = uint32_t(instance_close.size());
+            instance_close.push_back(close);
+        }
         instances.push_back(inst);
         ++placed;
     }

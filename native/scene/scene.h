@@ -72,6 +72,7 @@ struct Scene {
     std::vector<Prototype> prototypes;
     std::vector<Instance> instances;
     std::vector<uint32_t> instance_materials;  // per instance, its slots' scene materials (Instance::first_material)
+    std::vector<Transform> instance_close;     // moving instances' transforms at shutter close (Instance::motion)
 
     std::vector<Material> materials;    // materials[0] always exists (default grey diffuse)
     std::vector<Light> lights;
@@ -99,14 +100,18 @@ struct Scene {
     static constexpr uint32_t kNoPrototype = 0xffffffffu;
     uint32_t add_prototype(const MeshInput& mesh);
     // Places prototype `prototype` once per transform, each with the same
-    // material slots (scene material per slot) and object name. An instance
-    // whose transform is not invertible (or not finite) is skipped and
-    // reported in dropped. Instances of an emissive material are flattened
+    // material slots (scene material per slot) and object name. With
+    // `close_transforms` (motion blur; null = none), instance i moves from
+    // transforms[i] at shutter open to close_transforms[i] at close. An
+    // instance whose transform is not invertible (or not finite; for a
+    // moving one at either end or mid-shutter) is skipped and reported in dropped. Instances of an emissive material are flattened
     // into world-space triangles instead (add_mesh), so that next-event
     // estimation samples them. Throws std::invalid_argument for an unknown
     // prototype or material. Returns the instances placed (either way).
     size_t add_instances(uint32_t prototype, const Transform* transforms, size_t count,
-                         const std::vector<uint32_t>& material_slots, const std::string& name);
+                         const std::vector<uint32_t>& material_slots, const std::string& name,
+                         const Transform* close_transforms = nullptr);
+    bool has_moving_instances() const { return !instance_close.empty(); }
     // Triangles rendered through instances (each instance counts its prototype's).
     size_t instanced_triangle_count() const;
 

@@ -86,3 +86,28 @@ def test_instances_render_as_the_flattened_triangles(traversal):
     # rounding in the transform changes a path, far inside the noise.
     assert abs(a.mean() / b.mean() - 1.0) < 0.01, (a.mean(), b.mean())
     assert np.abs(a - b).mean() < 0.02 * b.mean()
+
+
+def test_moving_instances_render_as_moving_flattened_triangles():
+    opens = placements(30, seed=4)
+    closes = opens.copy()
+    closes[:, 0, 3] += 0.8  # every instance slides along x over the shutter
+    instanced, flattened = base_scene(), base_scene()
+    proto = instanced.add_prototype("octa", OCTA_P, OCTA_I)
+    with pytest.raises(ValueError, match="matrices_close"):
+        instanced.add_instances(proto, opens, matrices_close=closes[:3])
+    assert instanced.add_instances(proto, opens, matrices_close=closes) == 30
+    for a, b in zip(opens, closes):
+        flattened.add_mesh("octa", OCTA_P, OCTA_I, a, matrix_close=b)
+    assert "motion_blur" in instanced.features
+
+    def render(scene, traversal):
+        r = native.Renderer(scene, width=32, height=32, spp=16, traversal=traversal, sampler="cpt")
+        r.render()
+        return r.pass_pixels("Combined")[:, :3]
+
+    flat = render(flattened, "single")
+    for traversal in ("single", "stream"):
+        a = render(instanced, traversal)
+        assert abs(a.mean() / flat.mean() - 1.0) < 0.01, (traversal, a.mean(), flat.mean())
+        assert np.abs(a - flat).mean() < 0.02 * flat.mean()
