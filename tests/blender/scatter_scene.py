@@ -13,8 +13,10 @@
 #     SIZE          image width and height in pixels
 #     EXPORT_ONLY   1: only export the scene (COHERENT), print its counts and time
 #
-# Prints "SCATTER_SECONDS <seconds>" (render or export wall time) and, for
-# COHERENT, "SCATTER_EXPORT prototypes=.. instances=.. triangles=.. instanced_triangles=.. seconds=..".
+# Prints "SCATTER_SECONDS <seconds>" (render or export wall time), the
+# process's peak and current resident memory ("SCATTER_MEMORY peak_kib=..
+# current_kib=..") and, for COHERENT, "SCATTER_EXPORT prototypes=..
+# instances=.. triangles=.. instanced_triangles=.. seconds=..".
 import sys
 import time
 
@@ -128,4 +130,8 @@ else:
     start = time.perf_counter()
     bpy.ops.render.render(write_still=True)
     print(f"SCATTER_SECONDS {time.perf_counter() - start:.3f}")
+# Peak and current resident memory of this Blender process (Linux).
+with open("/proc/self/status") as status:
+    memory = {k: v.split()[0] for k, v in (line.split(":", 1) for line in status) if k in ("VmHWM", "VmRSS")}
+print(f"SCATTER_MEMORY peak_kib={memory.get('VmHWM', 0)} current_kib={memory.get('VmRSS', 0)}")
 sys.stdout.flush()
