@@ -290,7 +290,8 @@ size_t add_instances(PyScene& self, int64_t prototype, const py::handle& matrice
                                           close_transforms);
     }
     self.finalized = false;
-    self.bvh.reset();
+    self.bvh.reset();  // emissive instances became triangles
+    self.instance_bvh.reset();
     return placed;
 }
 
