@@ -377,13 +377,17 @@ class SceneExporter:
     def _add_instance_groups(self):
         """Adds the queued placements: a mesh placed once as world-space
         triangles (as without instancing), else once as a prototype plus a
-        matrix per placement."""
+        matrix per placement (linked duplicates too: several groups, one mesh)."""
         scene = self.result.scene
+        placements = {}  # mesh_cache_key -> placements over every group
+        for group in self._groups.values():
+            if group is not None:
+                placements[group.mesh_key] = placements.get(group.mesh_key, 0) + len(group.matrices)
         prototypes = {}  # mesh_cache_key -> prototype index
         for group in self._groups.values():
             if group is None or not group.matrices:
                 continue
-            if len(group.matrices) == 1:
+            if placements[group.mesh_key] == 1:
                 self._add_flattened(group, group.matrices[0], group.closes[0] if group.closes else None)
                 continue
             arrays = group.arrays

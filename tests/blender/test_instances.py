@@ -51,3 +51,35 @@ def test_scatter_renders_as_cycles_does(blender, tmp_path):
     # shadows in place, not just the mean.
     block = lambda img: img.reshape(8, 6, 8, 6).mean(axis=(1, 3))  # noqa: E731
     assert np.abs(block(ours) - block(cycles)).max() < 0.1 * cycles.mean() + 0.02, (block(ours), block(cycles))
+
+
+LINKED_DUPLICATES = """
+import bpy
+from coherent import export, native_module
+for ob in list(bpy.data.objects):
+    bpy.data.objects.remove(ob, do_unlink=True)
+bpy.ops.mesh.primitive_ico_sphere_add(subdivisions=2)
+original = bpy.context.active_object
+for k in range(3):  # linked duplicates: new objects sharing the sphere's mesh
+    dup = bpy.data.objects.new(f"dup{k}", original.data)
+    dup.location = (3.0 * (k + 1), 0.0, 0.0)
+    bpy.context.scene.collection.objects.link(dup)
+bpy.ops.mesh.primitive_plane_add(size=20.0)
+depsgraph = bpy.context.evaluated_depsgraph_get()
+s = export.export_scene(native_module(), depsgraph, 8, 8, need_camera=False).scene
+print(f"LINKED prototypes={s.prototype_count} instances={s.instance_count} triangles={s.triangle_count} "
+      f"instanced_triangles={s.instanced_triangle_count}")
+"""
+
+
+def test_linked_duplicates_share_one_prototype(blender, tmp_path):
+    script = tmp_path / "linked.py"
+    script.write_text(LINKED_DUPLICATES)
+    result = blender("--python", script)
+    assert result.returncode == 0, result.describe()
+    line = re.search(r"LINKED (.*)", result.output)
+    assert line, result.describe()
+    counts = dict(kv.split("=") for kv in line.group(1).split())
+    # Four objects share the sphere (80 triangles): one prototype, four
+    # instances; the plane, used once, stays world-space triangles.
+    assert counts == {"prototypes": "1", "instances": "4", "triangles": "2", "instanced_triangles": "320"}, counts
