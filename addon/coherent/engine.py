@@ -288,6 +288,10 @@ class CoherentRenderEngine(bpy.types.RenderEngine):
         nscene = exported.scene
 
         self.update_stats("", f"Building BVH ({nscene.triangle_count:,} triangles)")
+        if nscene.instance_count:
+            print(f"Coherent: {nscene.instance_count:,} instances of {nscene.prototype_count} shared meshes "
+                  f"({nscene.instanced_triangle_count:,} triangles as instanced) beside "
+                  f"{nscene.triangle_count:,} world-space triangles")
         build_start = time.perf_counter()
         renderer = native.Renderer(
             nscene, width=width, height=height, spp=props.samples,

@@ -4,7 +4,10 @@
 Geometry goes through numpy arrays filled by `foreach_get` (no Python loop over
 vertices or triangles). Triangle arrays are extracted once per mesh datablock
 and reused for every instance of it (linked duplicates, collection instances,
-Geometry Nodes instances); each instance only contributes its transform.
+Geometry Nodes instances); each instance only contributes its transform. A
+mesh placed more than once is sent to the native scene once, as a prototype
+that keeps its own BVH, and its placements as one (K, 4, 4) array of matrices
+(Scene.add_instances): memory grows with unique triangles plus instances.
 
 Conventions: Blender is Z-up and right-handed, a camera looks down its local
 -Z axis with +Y up, lights point along their local -Z axis. Matrices are
@@ -16,6 +19,7 @@ from __future__ import annotations
 
 import math
 import time
+from itertools import chain
 
 import numpy as np
 
@@ -170,6 +174,52 @@ class ExportResult:
         self.lights = 0
 
 
+class InstanceGroup:
+    """Placements of one object's triangles with one set of materials.
+
+    Each placement costs one matrix copy in a list; the list becomes one
+    float32 array when the group is added to the scene. With motion blur,
+    `closes` holds every placement's transform at shutter close (the open one
+    for those that stand still) once any placement moves.
+    """
+
+    __slots__ = ("arrays", "mesh_key", "name", "slots", "material_ids", "matrices", "closes")
+
+    def __init__(self, arrays, mesh_key, name, slots, material_ids):
+        self.arrays = arrays
+        self.mesh_key = mesh_key
+        self.name = name
+        self.slots = slots
+        self.material_ids = material_ids
+        self.matrices = []
+        self.closes = None
+
+    def add(self, matrix, close=None):
+        self.matrices.append(matrix.copy())
+        if close is not None and self.closes is None:
+            self.closes = self.matrices[:-1]  # the earlier placements stand still
+        if self.closes is not None:
+            self.closes.append(self.matrices[-1] if close is None else close)
+
+    @staticmethod
+    def matrix_array(matrices):
+        """Matrices as a (K, 4, 4) float32 array (rows of each matrix in order)."""
+        count = len(matrices)
+        flat = np.fromiter(chain.from_iterable(chain.from_iterable(matrices)), np.float32, count=16 * count)
+        return flat.reshape(count, 4, 4)
+
+    def prototype_slots(self):
+        """Slots for the shared mesh, whose triangles keep their material indices.
+
+        Blender clamps an index past the last slot to the last slot, and a
+        single slot applies to every face: padding with the last slot does both.
+        """
+        if not self.slots:
+            return []
+        needed = self.arrays.max_material_index + 1
+        return self.slots + [self.slots[-1]] * max(0, needed - len(self.slots))
+
+
 class SceneExporter:
     """Converts one evaluated depsgraph into a native Scene."""
 
@@ -189,6 +239,8 @@ class SceneExporter:
         self.mesh_cache = mesh_cache if mesh_cache is not None else MeshCache()
         self.used_keys = set()  # mesh_cache keys this export rendered
         self._unsupported_types = set()
+        # (original object, evaluated data) -> InstanceGroup, or None when it has no triangles
+        self._groups = {}
 
     def export(self, cancelled=lambda: False):
         start = time.perf_counter()
@@ -203,7 +255,11 @@ class SceneExporter:
         # if no such instance showed up, so nothing is rendered twice.
         pending = {}   # original object pointer -> (evaluated object, matrix)
         covered = set()
-        for inst in depsgraph.object_instances:
+        for count, inst in enumerate(depsgraph.object_instances):
+            # Asking Blender costs about a microsecond: once per 256 instances
+            # keeps cancelling prompt at a fraction of a scatter's export time.
+            if count & 255 == 255 and cancelled():
+                break
             if not getattr(inst, "show_self", True):
                 continue
             ob = inst.object
@@ -211,7 +267,7 @@ class SceneExporter:
             if kind == "MESH":
                 if inst.is_instance and inst.parent is not None:
                     covered.add(_original_pointer(inst.parent))
-                self._export_mesh_instance(inst, ob, np.array(inst.matrix_world, dtype=np.float32))
+                self._export_mesh_instance(inst, ob, inst.matrix_world)
             elif kind in _MESH_TYPES:
                 if not inst.is_instance:
                     pending[_original_pointer(ob)] = (ob, np.array(inst.matrix_world, dtype=np.float32))
@@ -221,11 +277,10 @@ class SceneExporter:
                 self._unsupported_types.add(kind)
                 self.result.warnings.append(f"objects of type {kind} are not supported and were skipped "
                                             f"(first: '{ob.name}')")
-            if cancelled():
-                break
         for key, (ob, matrix) in pending.items():
             if key not in covered:
                 self._export_mesh_instance(None, ob, matrix)
+        self._add_instance_groups()
 
         export_world(bscene.world, self.result.scene, self.result.warnings)
         summary = self.result.scene.dropped_summary
@@ -261,12 +316,9 @@ class SceneExporter:
             self.result.meshes += 1
         return arrays
 
-    def _export_mesh_instance(self, inst, ob, matrix):
-        arrays = self._mesh_for(ob)
-        if arrays is None:
-            return
-        # Slot -> native material, resolved per instance: objects sharing a mesh
-        # may link different materials to their slots.
+    def _material_binding(self, ob, arrays):
+        """(slots, material_ids) for add_mesh: slot -> native material, resolved
+        per object (objects sharing a mesh may link different materials)."""
         slots = [self.materials.index_of(slot.material) for slot in ob.material_slots]
         if not slots and ob.data is not None and hasattr(ob.data, "materials"):
             slots = [self.materials.index_of(m) for m in ob.data.materials]
@@ -278,19 +330,79 @@ class SceneExporter:
                 material_ids = np.minimum(material_ids, len(slots) - 1)
         elif slots:
             slots = slots[:1]
+        return slots, material_ids
 
-        name = ob.name
-        if inst is not None and inst.is_instance and inst.parent is not None and inst.parent.name != ob.name:
-            name = f"{inst.parent.name}/{ob.name}"
-        matrix_close = None
+    def _group_for(self, inst, ob):
+        """The InstanceGroup of this object's triangles and materials (None if it has none).
+
+        Keyed by the original object and the evaluated data: the two decide
+        the triangles and the material slots, while the evaluated object
+        itself may be a temporary that Blender reuses for every instance.
+        """
+        data = ob.data
+        key = (_original_pointer(ob), data.as_pointer() if data is not None else 0)
+        try:
+            return self._groups[key]
+        except KeyError:
+            pass
+        arrays = self._mesh_for(ob)
+        group = None
+        if arrays is not None:
+            name = ob.name
+            if inst is not None and inst.is_instance and inst.parent is not None and inst.parent.name != ob.name:
+                name = f"{inst.parent.name}/{ob.name}"
+            slots, material_ids = self._material_binding(ob, arrays)
+            group = InstanceGroup(arrays, mesh_cache_key(ob), name, slots, material_ids)
+        self._groups[key] = group
+        return group
+
+    def _export_mesh_instance(self, inst, ob, matrix):
+        """Queues one placement (`matrix`: object to world, a Matrix or a 4x4 array)."""
+        group = self._group_for(inst, ob)
+        if group is None:
+            return
         if self.motion:
             moving = self.motion.get(motion.instance_key(inst, ob))
             if moving is not None:
-                matrix, matrix_close = moving
-        self.result.scene.add_mesh(name, arrays.positions, arrays.indices, matrix,
-                                   normals=arrays.normals, material_ids=material_ids, material_slots=slots,
-                                   matrix_close=matrix_close)
+                group.add(*moving)
+                return
+        group.add(matrix)
+
+    def _add_flattened(self, group, matrix, matrix_close=None):
+        arrays = group.arrays
+        self.result.scene.add_mesh(group.name, arrays.positions, arrays.indices, np.asarray(matrix, dtype=np.float32),
+                                   normals=arrays.normals, material_ids=group.material_ids,
+                                   material_slots=group.slots, matrix_close=matrix_close)
         self.result.instances += 1
+
+    def _add_instance_groups(self):
+        """Adds the queued placements: a mesh placed once as world-space
+        triangles (as without instancing), else once as a prototype plus a
+        matrix per placement (linked duplicates too: several groups, one mesh)."""
+        scene = self.result.scene
+        placements = {}  # mesh_cache_key -> placements over every group
+        for group in self._groups.values():
+            if group is not None:
+                placements[group.mesh_key] = placements.get(group.mesh_key, 0) + len(group.matrices)
+        prototypes = {}  # mesh_cache_key -> prototype index
+        for group in self._groups.values():
+            if group is None or not group.matrices:
+                continue
+            if placements[group.mesh_key] == 1:
+                self._add_flattened(group, group.matrices[0], group.closes[0] if group.closes else None)
+                continue
+            arrays = group.arrays
+            proto = prototypes.get(group.mesh_key)
+            if proto is None:
+                proto = scene.add_prototype(group.name, arrays.positions, arrays.indices, normals=arrays.normals,
+                                            material_ids=arrays.material_index)
+                prototypes[group.mesh_key] = proto
+            if proto >= 0:
+                closes = None if group.closes is None else group.matrix_array(group.closes)
+                scene.add_instances(proto, group.matrix_array(group.matrices), material_slots=group.prototype_slots(),
+                                    name=group.name, matrices_close=closes)
+            self.result.instances += len(group.matrices)
+            group.matrices = []
 
     # -- lights -----------------------------------------------------------------
 

@@ -93,6 +93,13 @@ struct BvhBuildStats {
     double refit_seconds = 0.0;
 };
 
+// The binned SAH builder of Bvh (no spatial splits) over arbitrary boxes:
+// binary `nodes` as Bvh::nodes() (root at 0, siblings adjacent), whose
+// leaves index `order` (leaf slot -> box index). Empty or non-finite boxes
+// are left out. The top level of instancing (instance_bvh.h) uses it.
+void build_box_tree(const std::vector<BBox>& boxes, const BvhBuildOptions& opt, std::vector<BvhNode>& nodes,
+                    std::vector<uint32_t>& order);
+
 class Bvh {
 public:
     Bvh() = default;

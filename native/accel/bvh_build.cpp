@@ -335,6 +335,28 @@ void flatten(const std::vector<TempNode>& temp, std::vector<BvhNode>& nodes, Bvh
 
 }  // namespace
 
+void build_box_tree(const std::vector<BBox>& boxes, const BvhBuildOptions& opt, std::vector<BvhNode>& nodes,
+                    std::vector<uint32_t>& order) {
+    nodes.clear();
+    order.clear();
+    std::vector<Vec3f> centroids(boxes.size());
+    std::vector<uint32_t> refs;
+    refs.reserve(boxes.size());
+    for (size_t i = 0; i < boxes.size(); ++i) {
+        centroids[i] = boxes[i].center();
+        if (!boxes[i].empty() && is_finite(boxes[i].lo) && is_finite(boxes[i].hi)) refs.push_back(uint32_t(i));
+    }
+    const uint32_t n = static_cast<uint32_t>(refs.size());
+    if (n == 0) return;
+    const RootBounds root = root_bounds(boxes, centroids, refs);
+    std::vector<TempNode> temp(2 * static_cast<size_t>(n) - 1);
+    Builder builder(boxes.data(), centroids.data(), refs.data(), temp.data(), opt);
+    builder.build(0, 0, n, root.box, root.cbox, 0);
+    BvhBuildStats stats;
+    flatten(temp, nodes, stats);
+    order = std::move(refs);
+}
+
 void Bvh::build(const Scene& scene, const BvhBuildOptions& opt) {
     build_from(scene.vertices.data(), scene.vertices.size() / 3, opt);
 }

@@ -68,15 +68,18 @@ struct alignas(32) HitPacket {
     alignas(32) float t[kMaxPacketRays];
     alignas(32) float u[kMaxPacketRays], v[kMaxPacketRays];
     alignas(32) uint32_t prim[kMaxPacketRays];
+    // Hit::instance; only the instance kernels (instance_bvh.h) write it.
+    alignas(32) uint32_t instance[kMaxPacketRays];
 
     void reset(int n) {
         for (int i = 0; i < n; ++i) {
             t[i] = kInf;
             u[i] = v[i] = 0.0f;
             prim[i] = kInvalidPrim;
+            instance[i] = kInvalidPrim;
         }
     }
-    Hit hit(int i) const { return Hit{t[i], u[i], v[i], prim[i]}; }
+    Hit hit(int i) const { return Hit{t[i], u[i], v[i], prim[i], instance[i]}; }
 };
 
 // Occlusion results: bit i set = ray i is occluded. Kernels only set bits of

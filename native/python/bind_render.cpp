@@ -114,15 +114,17 @@ public:
         // built (read and written with the GIL held: PyScene's bookkeeping is
         // only touched from Python threads).
         std::shared_ptr<const Bvh> bvh = scene_->bvh;
+        std::shared_ptr<const InstanceBvh> instances = scene_->instance_bvh;
         bvh_reused_ = bvh != nullptr;
         try {
             py::gil_scoped_release unlocked;  // the BVH build takes time
-            renderer_ = std::make_unique<Renderer>(scene_->scene, settings, std::move(bvh));
+            renderer_ = std::make_unique<Renderer>(scene_->scene, settings, std::move(bvh), std::move(instances));
         } catch (...) {
             scene_->active_renderers.fetch_sub(1);
             throw;
         }
         scene_->bvh = renderer_->shared_bvh();
+        scene_->instance_bvh = renderer_->shared_instance_bvh();
         settings_ = renderer_->settings();  // as resolved: sampler and traversal never Auto
     }
 

@@ -163,22 +163,63 @@ float positive(double v, const char* arg) {
 
 py::tuple vec_tuple(const Vec3f& v) { return py::make_tuple(v.x, v.y, v.z); }
 
+// One mesh's arrays as a MeshInput that borrows them (kept alive here).
+// Shared by add_mesh and add_prototype: the same checks and messages.
+struct MeshArgs {
+    FloatArray positions, normals;
+    py::array indices_keep, ids_keep;
+    std::vector<uint32_t> indices_storage, ids_storage;
+    MeshInput in;
+};
+
+void read_mesh_arrays(MeshArgs& a, const std::string& name, const py::handle& positions_obj,
+                      const py::handle& indices_obj, const py::handle& normals_obj,
+                      const py::handle& material_ids_obj) {
+    MeshInput& in = a.in;
+    in.name = name;
+    a.positions = float_array(positions_obj, {-1, 3}, "positions", "(N, 3)");
+    in.positions = a.positions.data();
+    in.vertex_count = size_t(a.positions.shape(0));
+    in.indices = index_array(indices_obj, {-1, 3}, "indices", "(M, 3)", a.indices_keep, a.indices_storage);
+    in.triangle_count = size_t(a.indices_keep.shape(0));
+    if (!normals_obj.is_none()) {
+        a.normals = float_array(normals_obj, {-1, 3, 3}, "normals", "(M, 3, 3)");
+        if (size_t(a.normals.shape(0)) != in.triangle_count)
+            throw py::value_error("normals: expected shape (M, 3, 3) with M = " + std::to_string(in.triangle_count) +
+                                  " triangles, got " + shape_string(a.normals));
+        in.normals = a.normals.data();
+    }
+    if (!material_ids_obj.is_none()) {
+        in.material_ids = index_array(material_ids_obj, {-1}, "material_ids", "(M,)", a.ids_keep, a.ids_storage);
+        if (size_t(a.ids_keep.shape(0)) != in.triangle_count)
+            throw py::value_error("material_ids: expected shape (M,) with M = " + std::to_string(in.triangle_count) +
+                                  " triangles, got " + shape_string(a.ids_keep));
+    }
+}
+
+// Scene material indices from a list argument, each checked to exist.
+std::vector<uint32_t> read_material_slots(const PyScene& self, const py::handle& obj) {
+    std::vector<uint32_t> slots;
+    if (obj.is_none()) return slots;
+    for (auto item : py::iter(obj)) {
+        const auto slot = integer_arg(item, "material_slots");
+        if (slot < 0 || size_t(slot) >= self.scene.materials.size())
+            throw py::value_error("material_slots: material index " + std::to_string(slot) +
+                                  " does not exist (scene has " + std::to_string(self.scene.materials.size()) +
+                                  " materials)");
+        slots.push_back(uint32_t(slot));
+    }
+    return slots;
+}
+
 size_t add_mesh(PyScene& self, const std::string& name, const py::handle& positions_obj,
                 const py::handle& indices_obj, const py::handle& matrix_obj, const py::handle& normals_obj,
                 const py::handle& material_ids_obj, const py::handle& material_slots_obj,
                 const py::handle& matrix_close_obj) {
     self.check_mutable("add_mesh");
-    MeshInput in;
-    in.name = name;
-
-    FloatArray positions = float_array(positions_obj, {-1, 3}, "positions", "(N, 3)");
-    in.positions = positions.data();
-    in.vertex_count = size_t(positions.shape(0));
-
-    py::array indices_keep;
-    std::vector<uint32_t> indices_storage;
-    in.indices = index_array(indices_obj, {-1, 3}, "indices", "(M, 3)", indices_keep, indices_storage);
-    in.triangle_count = size_t(indices_keep.shape(0));
+    MeshArgs args;
+    read_mesh_arrays(args, name, positions_obj, indices_obj, normals_obj, material_ids_obj);
+    MeshInput& in = args.in;
 
     auto read_matrix = [](const py::handle& obj, const char* what, Transform& out) {
         FloatArray matrix = float_array(obj, {4, 4}, what, "(4, 4)");
@@ -196,35 +237,7 @@ size_t add_mesh(PyScene& self, const std::string& name, const py::handle& positi
         read_matrix(matrix_close_obj, "matrix_close", in.object_to_world_close);
         in.moves = true;
     }
-
-    FloatArray normals;
-    if (!normals_obj.is_none()) {
-        normals = float_array(normals_obj, {-1, 3, 3}, "normals", "(M, 3, 3)");
-        if (size_t(normals.shape(0)) != in.triangle_count)
-            throw py::value_error("normals: expected shape (M, 3, 3) with M = " + std::to_string(in.triangle_count) +
-                                  " triangles, got " + shape_string(normals));
-        in.normals = normals.data();
-    }
-
-    py::array ids_keep;
-    std::vector<uint32_t> ids_storage;
-    if (!material_ids_obj.is_none()) {
-        in.material_ids = index_array(material_ids_obj, {-1}, "material_ids", "(M,)", ids_keep, ids_storage);
-        if (size_t(ids_keep.shape(0)) != in.triangle_count)
-            throw py::value_error("material_ids: expected shape (M,) with M = " + std::to_string(in.triangle_count) +
-                                  " triangles, got " + shape_string(ids_keep));
-    }
-
-    if (!material_slots_obj.is_none()) {
-        for (auto item : py::iter(material_slots_obj)) {
-            const auto slot = integer_arg(item, "material_slots");
-            if (slot < 0 || size_t(slot) >= self.scene.materials.size())
-                throw py::value_error("material_slots: material index " + std::to_string(slot) +
-                                      " does not exist (scene has " + std::to_string(self.scene.materials.size()) +
-                                      " materials)");
-            in.material_slots.push_back(uint32_t(slot));
-        }
-    }
+    in.material_slots = read_material_slots(self, material_slots_obj);
 
     size_t added;
     {
@@ -234,6 +247,52 @@ size_t add_mesh(PyScene& self, const std::string& name, const py::handle& positi
     self.finalized = false;
     self.bvh.reset();  // the triangles changed
     return added;
+}
+
+// Scene.add_prototype: a mesh stored once in object space (instance.h).
+int64_t add_prototype(PyScene& self, const std::string& name, const py::handle& positions_obj,
+                      const py::handle& indices_obj, const py::handle& normals_obj,
+                      const py::handle& material_ids_obj) {
+    self.check_mutable("add_prototype");
+    MeshArgs args;
+    read_mesh_arrays(args, name, positions_obj, indices_obj, normals_obj, material_ids_obj);
+    uint32_t id;
+    {
+        py::gil_scoped_release unlocked;
+        id = self.scene.add_prototype(args.in);
+    }
+    return id == Scene::kNoPrototype ? -1 : int64_t(id);
+}
+
+static_assert(sizeof(Transform) == 16 * sizeof(float), "a (K, 4, 4) float32 array is K Transforms");
+
+// Scene.add_instances: one prototype placed by K matrices, read in place.
+size_t add_instances(PyScene& self, int64_t prototype, const py::handle& matrices_obj,
+                     const py::handle& material_slots_obj, const std::string& name,
+                     const py::handle& matrices_close_obj) {
+    self.check_mutable("add_instances");
+    if (prototype < 0 || size_t(prototype) >= self.scene.prototypes.size())
+        throw py::value_error("prototype: " + std::to_string(prototype) + " does not exist (scene has " +
+                              std::to_string(self.scene.prototypes.size()) + " prototypes)");
+    FloatArray matrices = float_array(matrices_obj, {-1, 4, 4}, "matrices", "(K, 4, 4)");
+    const std::vector<uint32_t> slots = read_material_slots(self, material_slots_obj);
+    const auto* transforms = reinterpret_cast<const Transform*>(matrices.data());
+    FloatArray close;
+    const Transform* close_transforms = nullptr;
+    if (!matrices_close_obj.is_none()) {
+        close = float_array(matrices_close_obj, {matrices.shape(0), 4, 4}, "matrices_close", "(K, 4, 4) as matrices");
+        close_transforms = reinterpret_cast<const Transform*>(close.data());
+    }
+    size_t placed;
+    {
+        py::gil_scoped_release unlocked;
+        placed = self.scene.add_instances(uint32_t(prototype), transforms, size_t(matrices.shape(0)), slots, name,
+                                          close_transforms);
+    }
+    self.finalized = false;
+    self.bvh.reset();  // emissive instances became triangles
+    self.instance_bvh.reset();
+    return placed;
 }
 
 // A validated Material from add_material's / set_material's arguments.
@@ -501,6 +560,35 @@ size_t set_world_map(PyScene& self, const py::handle& pixels, const py::handle& 
     return replaced;
 }
 
+// Scene.add_prototype / add_instances and their counts (shared geometry, scene/instance.h).
+void bind_instancing(py::class_<PyScene, std::shared_ptr<PyScene>>& scene_class) {
+    scene_class
+        .def("add_prototype", &add_prototype, py::arg("name"), py::arg("positions"), py::arg("indices"),
+             py::arg("normals") = py::none(), py::arg("material_ids") = py::none(),
+             R"doc(Adds a mesh shared by instances, stored once in object space.
+
+Arguments as add_mesh's (no matrix). Material ids select slots that each
+instance maps to scene materials (add_instances). Returns the prototype's
+index, or -1 when no triangle was usable (reported in `dropped`).
+)doc")
+        .def("add_instances", &add_instances, py::arg("prototype"), py::arg("matrices"),
+             py::arg("material_slots") = py::none(), py::arg("name") = "", py::arg("matrices_close") = py::none(),
+             R"doc(Places prototype `prototype` once per row-major object-to-world matrix.
+
+matrices: float (K, 4, 4); material_slots: scene material per slot (as add_mesh).
+matrices_close: optional float (K, 4, 4), the transforms at shutter close
+(motion blur): instance k moves from matrices[k] to matrices_close[k].
+Instances with a non-invertible matrix are skipped (reported in `dropped`);
+instances of an emissive material become world-space triangles. Returns
+the number of instances placed.
+)doc")
+        .def_property_readonly("prototype_count", [](const PyScene& s) { return s.scene.prototypes.size(); })
+        .def_property_readonly("instance_count", [](const PyScene& s) { return s.scene.instances.size(); })
+        .def_property_readonly("instanced_triangle_count",
+                               [](const PyScene& s) { return s.scene.instanced_triangle_count(); },
+                               "Triangles rendered through instances (each instance counts its prototype's).");
+}
+
 }  // namespace
 
 void PyScene::check_mutable(const char* what) const {
@@ -544,12 +632,15 @@ void bind_world(py::class_<PyScene, std::shared_ptr<PyScene>>& cls) {
 }
 
 void bind_scene(py::module_& m) {
-    auto cls = py::class_<PyScene, std::shared_ptr<PyScene>>(m, "Scene", R"doc(
-A scene under construction: world-space triangles, materials, lights, camera
-and world colour. Fill it with add_material/add_mesh/add_light/set_camera,
+    py::class_<PyScene, std::shared_ptr<PyScene>> scene_class(m, "Scene", R"doc(
+A scene under construction: world-space triangles, shared meshes placed by
+instances, materials, lights, camera and world colour. Fill it with
+add_material/add_mesh/add_prototype/add_instances/add_light/set_camera,
 then pass it to Renderer (which calls finalize() if needed). Material 0 is the
 default grey diffuse.
-)doc")
+)doc");
+    bind_instancing(scene_class);
+    scene_class
         .def(py::init<>())
         .def("add_mesh", &add_mesh, py::arg("name"), py::arg("positions"), py::arg("indices"), py::arg("matrix"),
              py::arg("normals") = py::none(), py::arg("material_ids") = py::none(),
@@ -643,7 +734,7 @@ a different triangle count. Returns seconds (copy + refit).)doc")
                    std::to_string(s.scene.materials.size()) + " materials, " + std::to_string(s.scene.lights.size()) +
                    " lights>";
         });
-    bind_world(cls);
+    bind_world(scene_class);
 }
 
 }  // namespace coherent::python

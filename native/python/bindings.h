@@ -19,6 +19,7 @@
 
 namespace coherent {
 class Bvh;
+class InstanceBvh;
 }
 
 namespace coherent::python {
@@ -42,6 +43,9 @@ struct PyScene {
     // Invariant: null or built (or refit, Scene.refit_bvh_from) over exactly
     // `scene`'s current triangles; add_mesh resets it.
     std::shared_ptr<const Bvh> bvh;
+    // Likewise the instances' two-level BVH (null while the scene has no
+    // instances or no Renderer built it yet); add_instances resets it.
+    std::shared_ptr<const InstanceBvh> instance_bvh;
 
     void check_mutable(const char* what) const;
     void ensure_finalized();

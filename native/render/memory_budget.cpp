@@ -132,7 +132,21 @@ uint64_t scene_bytes(const Scene& s) {
                      vector_bytes(s.emissive_triangles) + vector_bytes(s.geometric_normals) +
                      vector_bytes(s.moving_triangles) + vector_bytes(s.moving_flag) + vector_bytes(s.object_names);
     for (const std::string& name : s.object_names) bytes += name.capacity();
+    // Shared geometry: each prototype once, each instance one record.
+    bytes += vector_bytes(s.prototypes) + vector_bytes(s.instances) + vector_bytes(s.instance_materials) +
+             vector_bytes(s.instance_close);
+    for (const Prototype& p : s.prototypes)
+        bytes += vector_bytes(p.vertices) + vector_bytes(p.normals) + vector_bytes(p.has_normals) +
+                 vector_bytes(p.slot_of);
     return bytes;
+}
+
+// Triangles the render builds BVHs over: the world-space ones plus each
+// prototype once (instances add a top-level node each, not triangles).
+static size_t unique_triangle_count(const Scene& s) {
+    size_t n = s.triangle_count();
+    for (const Prototype& p : s.prototypes) n += p.triangle_count();
+    return n + s.instances.size();
 }
 
 uint64_t film_bytes(uint64_t pixels, bool heatmaps) {
@@ -154,7 +168,7 @@ uint64_t bvh_build_bytes_estimate(size_t triangles) {
 
 MemoryEstimate estimate_render_memory(const Scene& scene, const RenderSettings& settings, bool builds_bvh) {
     MemoryEstimate e;
-    e.triangles = scene.triangle_count();
+    e.triangles = unique_triangle_count(scene);
     e.scene = scene_bytes(scene);
     e.bvh = builds_bvh ? bvh_build_bytes_estimate(e.triangles) : 0;
     e.film = film_bytes(uint64_t(settings.border_width()) * uint64_t(settings.border_height()), settings.heatmaps);

@@ -104,6 +104,7 @@ struct PacketScratch {
     OcclusionMask occluded;
     int lane_path[kMaxPacketRays];
     uint32_t lane_visits[kMaxPacketRays];
+    float lane_time[kMaxPacketRays];  // moving instances only: each lane's path time
 };
 
 // trace_tile_packets() below, in steps. The packet being gathered is
@@ -208,6 +209,7 @@ private:
         if (packet_coherence(pk_) >= min_coherence_) {
             PacketCounters pc = packet_counters();
             bvh_.intersect(pk_, scratch_.hits, &pc);
+            if (ctx_.instances) ctx_.instances->intersect(pk_, scratch_.hits, &pc, lane_times());
             book_packet(bounce, type, pc);
         } else {
             intersect_singly(bounce, type);
@@ -231,6 +233,7 @@ private:
         if (packet_coherence(pk_) >= min_coherence_) {
             PacketCounters pc = packet_counters();
             bvh_.occluded(pk_, scratch_.occluded, &pc);
+            if (ctx_.instances) ctx_.instances->occluded(pk_, scratch_.occluded, &pc, lane_times());
             book_packet(bounce, RayType::Shadow, pc);
         } else {
             occluded_singly(bounce);
@@ -250,11 +253,14 @@ private:
         for (int i = 0; i < pk_.size; ++i) {
             TraversalCounters c;
             Hit h;
-            if (bvh_.intersect(pk_.ray(i), h, &c)) {
+            const Ray r = pk_.ray(i);
+            if (merge_instance_hit(ctx_, tile_.states[size_t(scratch_.lane_path[i])], r, bvh_.intersect(r, h, &c), h,
+                                   &c)) {
                 scratch_.hits.t[i] = h.t;
                 scratch_.hits.u[i] = h.u;
                 scratch_.hits.v[i] = h.v;
                 scratch_.hits.prim[i] = h.prim;
+                scratch_.hits.instance[i] = h.instance;
             }
             book_single_ray(st_, bounce, type, c, lane_node_visits(i));
         }
@@ -262,9 +268,18 @@ private:
     void occluded_singly(int bounce) {
         for (int i = 0; i < pk_.size; ++i) {
             TraversalCounters c;
-            if (bvh_.occluded(pk_.ray(i), &c)) scratch_.occluded.set(i);
+            const Ray r = pk_.ray(i);
+            if (bvh_.occluded(r, &c) || instance_occluded(ctx_, tile_.states[size_t(scratch_.lane_path[i])], r, &c))
+                scratch_.occluded.set(i);
             book_single_ray(st_, bounce, RayType::Shadow, c, lane_node_visits(i));
         }
+    }
+
+    // Moving instances: each lane's shutter time (null when nothing moves).
+    const float* lane_times() {
+        if (!ctx_.instances->has_motion()) return nullptr;
+        for (int i = 0; i < pk_.size; ++i) scratch_.lane_time[i] = tile_.states[size_t(scratch_.lane_path[i])].time;
+        return scratch_.lane_time;
     }
 
     // Counters of one packet trace; with heatmaps, per-lane node visits too.
@@ -320,6 +335,7 @@ struct StreamScratch {
     std::vector<Hit> hits;
     std::vector<uint8_t> occluded;
     std::vector<int> path;  // ray -> path
+    std::vector<float> times;  // ray -> its path's shutter time (moving instances only)
 };
 
 namespace stream_detail {
@@ -331,6 +347,14 @@ inline StreamOptions tile_stream_options() {
     options.slice_size = 0;  // the whole stream at once
     options.parallel = false;
     return options;
+}
+
+// Moving instances: each ray's shutter time (null when nothing moves).
+inline const float* ray_times(const PathContext& ctx, const PathTile& tile, StreamScratch& scratch) {
+    if (!ctx.instances->has_motion()) return nullptr;
+    scratch.times.resize(scratch.path.size());
+    for (size_t i = 0; i < scratch.path.size(); ++i) scratch.times[i] = tile.states[size_t(scratch.path[i])].time;
+    return scratch.times.data();
 }
 
 inline void book_stream_work(RenderStats& st, int bounce, const StreamStats& ss) {
@@ -353,6 +377,9 @@ bool extend(const PathContext& ctx, PathTile& tile, StreamScratch& scratch, Rend
     StreamStats ss;
     intersect_stream(*ctx.bvh, scratch.rays.data(), scratch.rays.size(), scratch.hits.data(), &ss,
                      tile_stream_options());
+    if (ctx.instances)
+        ctx.instances->intersect_stream(scratch.rays.data(), scratch.rays.size(), scratch.hits.data(), &ss,
+                                        ray_times(ctx, tile, scratch));
     for (const int p : scratch.path) book_rays(st, bounce, tile.states[size_t(p)].type, 1);
     book_stream_work(st, bounce, ss);
     TraversalCounters motion;
@@ -381,6 +408,9 @@ inline void occlude(const PathContext& ctx, PathTile& tile, StreamScratch& scrat
     StreamStats ss;
     occluded_stream(*ctx.bvh, scratch.rays.data(), scratch.rays.size(), scratch.occluded.data(), &ss,
                     tile_stream_options());
+    if (ctx.instances)
+        ctx.instances->occluded_stream(scratch.rays.data(), scratch.rays.size(), scratch.occluded.data(), &ss,
+                                       ray_times(ctx, tile, scratch));
     book_rays(st, bounce, RayType::Shadow, scratch.rays.size());
     book_stream_work(st, bounce, ss);
     if (ctx.motion) {

@@ -30,12 +30,14 @@
 #include <limits>
 
 #include "../accel/bvh.h"
+#include "../accel/instance_bvh.h"
 #include "../accel/motion_bvh.h"
 #include "../core/inline.h"
 #include "../sample/image_sampler.h"
 #include "../scene/scene.h"
 #include "bsdf.h"
 #include "camera_rays.h"
+#include "instance_shading.h"
 #include "light_sampling.h"
 #include "ray_offset.h"
 #include "render_modes.h"
@@ -66,6 +68,8 @@ struct PathContext {
     // Object motion blur: the moving triangles (null when nothing moves;
     // they are then absent from `bvh`, see Renderer).
     const MotionBvh* motion = nullptr;
+    // Shared geometry: the instances' two-level BVH (null without instances).
+    const InstanceBvh* instances = nullptr;
 };
 
 // Cycles' sample clamping: a contribution whose light left path vertex
@@ -116,6 +120,20 @@ inline bool motion_occluded(const PathContext& ctx, const PathState& s, const Ra
     return ctx.motion && ctx.motion->occluded(r, s.time, counters);
 }
 
+// Shared geometry, for drivers tracing one ray at a time: merge the
+// instances' closest hit of `r` into (found, hit); whether an instance
+// blocks occlusion ray `r`. Packet and stream drivers call the
+// InstanceBvh's packet and stream kernels instead.
+inline bool merge_instance_hit(const PathContext& ctx, const PathState& s, const Ray& r, bool found, Hit& hit,
+                               TraversalCounters* counters = nullptr) {
+    if (!ctx.instances) return found;
+    return ctx.instances->intersect(r, hit, counters, s.time) || found;
+}
+inline bool instance_occluded(const PathContext& ctx, const PathState& s, const Ray& r,
+                              TraversalCounters* counters = nullptr) {
+    return ctx.instances && ctx.instances->occluded(r, counters, s.time);
+}
+
 // Integrators as continuation rules (render_modes.h): after a BSDF sample,
 // whether the sampled ray may start a new bounce. A ray that may not is still
 // traced once to collect its (MIS-weighted) emission, as for bounce limits,
@@ -151,7 +169,7 @@ inline void start_path(const PathContext& ctx, const PathSampler& ps, int px, in
         lens_v = ps.get(D::kLensV);
     }
     s = PathState{};
-    if (ctx.motion) s.time = ps.get(D::kTime);
+    if (ctx.motion || (ctx.instances && ctx.instances->has_motion())) s.time = ps.get(D::kTime);
     s.ray = generate_camera_ray<kDepthOfField>(ctx.scene->camera, fx, fy, rs.width, rs.height, lens_u, lens_v).ray;
     s.type = RayType::Camera;
 }
@@ -179,7 +197,8 @@ namespace shading {
 
 // The point where s.ray met triangle `tri`, as shading sees it.
 struct SurfacePoint {
-    uint32_t tri;
+    uint32_t tri;      // world-space triangle; kInvalidPrim on an instance (never a sampled light)
+    uint32_t material;
     Vec3f p, p_error;  // position and its rounding error bound (ray_offset.h)
     Vec3f ng;          // geometric normal, as stored (light pdfs use it)
     Vec3f ng_f;        // geometric normal on the side the ray came from
@@ -188,9 +207,41 @@ struct SurfacePoint {
     bool front;        // the ray hit the side ng points to
 };
 
+// The side the ray came from, and the shading normal there (`interp`, the
+// interpolated one, when the surface has shading normals).
+COHERENT_ALWAYS_INLINE void orient(SurfacePoint& sp, const Ray& ray, bool has_normals, const Vec3f& interp) {
+    sp.wo = -ray.d;
+    sp.front = dot(sp.wo, sp.ng) > 0.0f;
+    sp.ng_f = sp.front ? sp.ng : -sp.ng;
+    sp.n = sp.ng_f;
+    if (has_normals) {
+        const float len = length(interp);
+        if (len > 0.0f && std::isfinite(len)) {
+            const Vec3f ns = (sp.front ? interp : -interp) / len;
+            // A shading normal facing away from the viewer cannot shade it.
+            if (dot(ns, sp.wo) > 1e-4f) sp.n = ns;
+        }
+    }
+}
+
+// A hit on an instance: the prototype's triangle carried to the world.
+COHERENT_ALWAYS_INLINE SurfacePoint instance_surface_point(const Scene& scene, const PathState& s, const Hit& hit) {
+    const InstancedPoint ip = instanced_point(scene, hit, s.time);
+    SurfacePoint sp;
+    sp.tri = kInvalidPrim;
+    sp.material = ip.material;
+    sp.p = ip.p;
+    sp.p_error = ip.p_error;
+    sp.ng = ip.ng;
+    orient(sp, s.ray, ip.has_normal, ip.ns);
+    return sp;
+}
+
 COHERENT_ALWAYS_INLINE SurfacePoint surface_point(const Scene& scene, const PathState& s, const Hit& hit) {
+    if (hit.instance != kInvalidPrim) return instance_surface_point(scene, s, hit);
     SurfacePoint sp;
     sp.tri = hit.prim;
+    sp.material = scene.material_of[hit.prim];
     const uint32_t tri = hit.prim;
     const Vec3f* v = &scene.vertices[3 * size_t(tri)];
     const Vec3f* sn = &scene.normals[3 * size_t(tri)];
@@ -212,19 +263,9 @@ COHERENT_ALWAYS_INLINE SurfacePoint surface_point(const Scene& scene, const Path
         if (len > 0.0f && std::isfinite(len)) sp.ng = c / len;  // else keep the open pose's normal
     }
     sp.p = triangle_point(v[0], v[1], v[2], hit.u, hit.v, sp.p_error);
-    sp.wo = -s.ray.d;
-    sp.front = dot(sp.wo, sp.ng) > 0.0f;
-    sp.ng_f = sp.front ? sp.ng : -sp.ng;
-    sp.n = sp.ng_f;
-    if (scene.has_normals[tri]) {
-        const Vec3f interp = sn[0] * (1.0f - hit.u - hit.v) + sn[1] * hit.u + sn[2] * hit.v;
-        const float len = length(interp);
-        if (len > 0.0f && std::isfinite(len)) {
-            const Vec3f ns = (sp.front ? interp : -interp) / len;
-            // A shading normal facing away from the viewer cannot shade it.
-            if (dot(ns, sp.wo) > 1e-4f) sp.n = ns;
-        }
-    }
+    const bool has_normals = scene.has_normals[tri] != 0;
+    const Vec3f interp = has_normals ? sn[0] * (1.0f - hit.u - hit.v) + sn[1] * hit.u + sn[2] * hit.v : Vec3f(0.0f);
+    orient(sp, s.ray, has_normals, interp);
     return sp;
 }
 
@@ -403,7 +444,7 @@ inline void shade_hit(const PathContext& ctx, const PathSampler& ps, PathState& 
         return;
     }
 
-    const Material& mat = scene.materials[scene.material_of[sp.tri]];
+    const Material& mat = scene.materials[sp.material];
     if (mat.is_emissive()) add_emission<kLights>(ctx, s, mat, sp);
     if (s.last_ray) return;
 

@@ -29,7 +29,7 @@ COHERENT_ALWAYS_INLINE void trace_occlusion_rays(const PathContext& ctx, const P
     for (int k = 0; k < rays; ++k) {
         TraversalCounters c;
         const Ray r = occlusion_ray(ctx, ps, s, k);
-        unoccluded += ctx.bvh->occluded(r, &c) || motion_occluded(ctx, s, r, &c) ? 0 : 1;
+        unoccluded += ctx.bvh->occluded(r, &c) || motion_occluded(ctx, s, r, &c) || instance_occluded(ctx, s, r, &c) ? 0 : 1;
         book_single_ray(st, bounce, RayType::Shadow, c, node_visits);
     }
     resolve_occlusion(s, unoccluded);
@@ -45,7 +45,8 @@ PathOutput trace_path(const PathContext& ctx, const PathSampler& ps, int px, int
         const int bounce = s.bounce;
         TraversalCounters c;
         Hit hit;
-        const bool found = merge_motion_hit(ctx, s, bvh.intersect(s.ray, hit, &c), hit, &c);
+        const bool found = merge_motion_hit(
+            ctx, s, merge_instance_hit(ctx, s, s.ray, bvh.intersect(s.ray, hit, &c), hit, &c), hit, &c);
         book_single_ray(st, bounce, s.type, c, node_visits);
         shade_hit<kGlass, kLights>(ctx, ps, s, found, hit);
         trace_occlusion_rays(ctx, ps, s, bounce, st, node_visits);

@@ -287,8 +287,9 @@ private:
 
 Renderer::Renderer(const Scene& scene, const RenderSettings& settings) : Renderer(scene, settings, nullptr) {}
 
-Renderer::Renderer(const Scene& scene, const RenderSettings& settings, std::shared_ptr<const Bvh> bvh)
-    : scene_(scene), settings_(settings) {
+Renderer::Renderer(const Scene& scene, const RenderSettings& settings, std::shared_ptr<const Bvh> bvh,
+                   std::shared_ptr<const InstanceBvh> instances)
+    : scene_(scene), settings_(settings), instances_(std::move(instances)) {
     validate(settings_);  // setting_table.h: the one check every front end relies on
     features_ = settings_.force_all_features ? SceneFeatures::all() : scene_.features;
     auto_traversal_ = settings_.traversal == Traversal::Auto;
@@ -308,6 +309,13 @@ Renderer::Renderer(const Scene& scene, const RenderSettings& settings, std::shar
     }
     if (!scene_.moving_triangles.empty())
         motion_.build(scene_.vertices, scene_.motion_vertices, scene_.moving_triangles);
+    if (!scene_.instances.empty() && !instances_) {
+        BvhBuildOptions options;
+        options.width = settings_.bvh_width;
+        auto built = std::make_shared<InstanceBvh>();
+        built->build(scene_, options);
+        instances_ = std::move(built);
+    }
     bvh_ = std::move(bvh);
     film_ = Film(settings_.border_width(), settings_.border_height());
     if (settings_.heatmaps) film_.enable_heatmaps();
@@ -421,6 +429,7 @@ bool Renderer::render(const ProgressCallback& progress) {
     PathContext ctx{&scene_, bvh_.get(), &lights, &settings_};
     ctx.ao_distance = resolve_ao_distance(settings_, scene_);
     ctx.motion = motion_.empty() ? nullptr : &motion_;
+    ctx.instances = instances_ && !instances_->empty() ? instances_.get() : nullptr;
     const SamplerConfig samplers = sampler_config(settings_);
     const KernelFeatures kernel = kernel_features(settings_, features_, lights);
     std::unique_ptr<WavefrontPool> wavefront;

@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "../accel/bvh.h"
+#include "../accel/instance_bvh.h"
 #include "../accel/motion_bvh.h"
 #include "../film/film.h"
 #include "../scene/scene.h"
@@ -41,7 +42,9 @@ public:
     // the triangles, and so the BVH, unchanged). Precondition: `bvh` was
     // built from `scene` and no triangle changed since; it is shared, never
     // modified.
-    Renderer(const Scene& scene, const RenderSettings& settings, std::shared_ptr<const Bvh> bvh);
+    // Likewise `instances`, the two-level BVH of scene.instances (null: built here).
+    Renderer(const Scene& scene, const RenderSettings& settings, std::shared_ptr<const Bvh> bvh,
+             std::shared_ptr<const InstanceBvh> instances = nullptr);
     ~Renderer();
 
     // Renders settings.spp samples per pixel, pass by pass (sample 0 over the
@@ -63,6 +66,8 @@ public:
     const RenderStats& stats() const { return stats_; }
     const SceneFeatures& active_features() const { return features_; }
     const Bvh& bvh() const { return *bvh_; }
+    // The instances' BVH (null without instances), for the next Renderer over the same scene.
+    const std::shared_ptr<const InstanceBvh>& shared_instance_bvh() const { return instances_; }
     // The BVH, for handing on to the next Renderer over the same triangles.
     const std::shared_ptr<const Bvh>& shared_bvh() const { return bvh_; }
 
@@ -72,6 +77,9 @@ private:
     // Object motion blur: the moving triangles (empty when nothing moves);
     // they are left out of bvh_.
     MotionBvh motion_;
+    // Shared geometry (scene.instances): the two-level BVH's top level and
+    // the prototypes' BVHs; empty when the scene has no instances.
+    std::shared_ptr<const InstanceBvh> instances_;
     SceneFeatures features_;
     std::shared_ptr<const Bvh> bvh_;  // never null after construction
     Film film_;

@@ -55,9 +55,11 @@ struct TraceScratch {
     std::unique_ptr<RayPacket> packet;
     std::unique_ptr<HitPacket> hit_packet;
     std::vector<uint32_t> lane_visits;
+    std::vector<float> lane_time;  // moving instances: each lane's shutter time
 
     size_t bytes() const {
-        size_t b = capacity_bytes(order) + capacity_bytes(traced_rays) + capacity_bytes(lane_visits) + ws.bytes();
+        size_t b = capacity_bytes(order) + capacity_bytes(traced_rays) + capacity_bytes(lane_visits) +
+                   capacity_bytes(lane_time) + ws.bytes();
         if (packet) b += sizeof(RayPacket) + sizeof(HitPacket);
         return b;
     }
@@ -129,8 +131,8 @@ TracedOrder traced_order(const WavefrontOptions& opt, bool ordered, Buffers& b) 
 
 // The queue's rays one at a time, in traced order.
 template <bool kOcclusion>
-void trace_singly(const Bvh& bvh, const WavefrontOptions& opt, const TracedOrder& traced, Buffers& b, int bounce,
-                  RenderStats& st, bool per_path) {
+void trace_singly(const Bvh& bvh, const InstanceBvh* instances, const WavefrontOptions& opt,
+                  const TracedOrder& traced, Buffers& b, int bounce, RenderStats& st, bool per_path) {
     RayQueue& q = b.queue;
     for (size_t j = 0; j < q.size(); ++j) {
         const uint32_t i = traced.queue_index(j);
@@ -139,6 +141,11 @@ void trace_singly(const Bvh& bvh, const WavefrontOptions& opt, const TracedOrder
         TraversalCounters* cp = opt.counters ? &c : nullptr;
         if constexpr (kOcclusion) q.flag[i] = bvh.occluded(r, cp) ? 1 : 0;
         else q.flag[i] = bvh.intersect(r, q.hits[i], cp) ? 1 : 0;
+        if (instances) {
+            const float time = b.states[q.owner[i]].time;
+            if constexpr (kOcclusion) q.flag[i] = q.flag[i] || instances->occluded(r, cp, time) ? 1 : 0;
+            else q.flag[i] = instances->intersect(r, q.hits[i], cp, time) || q.flag[i] ? 1 : 0;
+        }
         if (opt.counters) {
             book_work(st, bounce, c);  // the ray itself was booked when queued
             if (per_path) b.visits[q.owner[i]] += uint32_t(c.node_visits);
@@ -146,10 +153,18 @@ void trace_singly(const Bvh& bvh, const WavefrontOptions& opt, const TracedOrder
     }
 }
 
+// Moving instances: the shutter time of each lane's path (null when nothing moves).
+const float* lane_times(const InstanceBvh* instances, Buffers& b, const uint32_t* lane_index, int lanes) {
+    if (!instances->has_motion()) return nullptr;
+    b.trace.lane_time.resize(size_t(lanes));
+    for (int l = 0; l < lanes; ++l) b.trace.lane_time[size_t(l)] = b.states[b.queue.owner[lane_index[l]]].time;
+    return b.trace.lane_time.data();
+}
+
 // The queue's rays as SIMD packets of consecutive traced rays.
 template <bool kOcclusion>
-void trace_packets(const Bvh& bvh, const WavefrontOptions& opt, const TracedOrder& traced, Buffers& b, int bounce,
-                   RenderStats& st, bool per_path) {
+void trace_packets(const Bvh& bvh, const InstanceBvh* instances, const WavefrontOptions& opt,
+                   const TracedOrder& traced, Buffers& b, int bounce, RenderStats& st, bool per_path) {
     RayQueue& q = b.queue;
     TraceScratch& ts = b.trace;
     const size_t n = q.size();
@@ -178,10 +193,12 @@ void trace_packets(const Bvh& bvh, const WavefrontOptions& opt, const TracedOrde
         if constexpr (kOcclusion) {
             OcclusionMask mask;
             bvh.occluded(pk, mask, pcp);
+            if (instances) instances->occluded(pk, mask, pcp, lane_times(instances, b, lane_index, pk.size));
             for (int l = 0; l < pk.size; ++l) q.flag[lane_index[l]] = mask.test(l) ? 1 : 0;
         } else {
             hp.reset(pk.size);
             bvh.intersect(pk, hp, pcp);
+            if (instances) instances->intersect(pk, hp, pcp, lane_times(instances, b, lane_index, pk.size));
             for (int l = 0; l < pk.size; ++l) {
                 const Hit h = hp.hit(l);
                 q.hits[lane_index[l]] = h;
@@ -199,8 +216,8 @@ void trace_packets(const Bvh& bvh, const WavefrontOptions& opt, const TracedOrde
 // Reorders and traces the queue: closest hits (extension rays) or occlusion
 // (shadow and AO rays). Results land at the rays' queue indices.
 template <bool kOcclusion>
-void trace_queue(const Bvh& bvh, const WavefrontOptions& opt, bool reorder, Buffers& b, int bounce, RenderStats& st,
-                 WavefrontStats& ws) {
+void trace_queue(const Bvh& bvh, const InstanceBvh* instances, const WavefrontOptions& opt, bool reorder, Buffers& b,
+                 int bounce, RenderStats& st, WavefrontStats& ws) {
     const size_t n = b.queue.size();
     b.queue.flag.assign(n, 0);
     if constexpr (!kOcclusion) b.queue.hits.assign(n, Hit{});
@@ -213,8 +230,8 @@ void trace_queue(const Bvh& bvh, const WavefrontOptions& opt, bool reorder, Buff
     const double start = thread_cpu_seconds();
     const TracedOrder traced = traced_order(opt, ordered, b);
     const bool per_path = opt.counters && opt.node_visits && !b.visits.empty();
-    if (opt.packet_size <= 0) trace_singly<kOcclusion>(bvh, opt, traced, b, bounce, st, per_path);
-    else trace_packets<kOcclusion>(bvh, opt, traced, b, bounce, st, per_path);
+    if (opt.packet_size <= 0) trace_singly<kOcclusion>(bvh, instances, opt, traced, b, bounce, st, per_path);
+    else trace_packets<kOcclusion>(bvh, instances, opt, traced, b, bounce, st, per_path);
     const double seconds = thread_cpu_seconds() - start;
     ws.trace_seconds += seconds;
     st.trace_seconds += seconds;
@@ -321,12 +338,13 @@ void WavefrontRenderer::run_wave(WavefrontRenderer& self, const ImageSampler& sa
         if (cancelled && cancelled->load(std::memory_order_relaxed)) return;
         // Extend: trace the live paths' extension rays, shade their hits.
         if (queue_extension_rays(b, bounce, st) == 0) break;
-        trace_queue<false>(bvh, opt, bounce > 0 || opt.reorder_camera_rays, b, bounce, st, self.stats_);
+        trace_queue<false>(bvh, ctx.instances, opt, bounce > 0 || opt.reorder_camera_rays, b, bounce, st,
+                           self.stats_);
         shade_queue<kGlass, kLights>(ctx, b, bounce, st);
         // Shadow: trace the shadow and AO rays the shading queued, resolve them.
         const size_t m = queue_occlusion_rays(ctx, b, bounce, st);
         if (m == 0) continue;
-        trace_queue<true>(bvh, opt, true, b, bounce, st, self.stats_);
+        trace_queue<true>(bvh, ctx.instances, opt, true, b, bounce, st, self.stats_);
         occlude_moving(ctx, b, bounce, st);
         resolve_occlusion_queue(b.queue.flag.data(), m,
                                 [&](size_t i) -> PathState& { return b.states[b.queue.owner[i]]; });

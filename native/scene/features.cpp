@@ -42,6 +42,9 @@ SceneFeatures compute_features(const Scene& scene) {
     std::vector<uint8_t> used(scene.materials.size(), 0);
     for (uint32_t m : scene.material_of)
         if (m < used.size()) used[m] = 1;
+    used[0] = used[0] || !scene.instances.empty();  // slots past an instance's own use the default
+    for (uint32_t m : scene.instance_materials)
+        if (m < used.size()) used[m] = 1;
 
     for (size_t i = 0; i < scene.materials.size(); ++i) {
         if (!used[i]) continue;
@@ -74,7 +77,7 @@ SceneFeatures compute_features(const Scene& scene) {
 
     f.depth_of_field = scene.camera.aperture_radius > 0.0f;
     f.world_light = !is_black(scene.world_color);
-    f.motion_blur = !scene.moving_triangles.empty();
+    f.motion_blur = !scene.moving_triangles.empty() || scene.has_moving_instances();
     f.hittable_emitters = f.hittable_emitters || f.emissive_meshes || f.world_light;
     return f;
 }

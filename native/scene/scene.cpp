@@ -176,6 +176,7 @@ uint32_t Scene::add_material(const Material& m) {
 BBox Scene::bounds() const {
     BBox b;
     for (const Vec3f& v : vertices) b.expand(v);
+    for (const Instance& inst : instances) b.expand(inst.world_bounds);
     return b;
 }
 

@@ -12,6 +12,7 @@
 #include "../core/vec.h"
 #include "camera.h"
 #include "features.h"
+#include "instance.h"
 #include "light.h"
 #include "material.h"
 #include "world.h"
@@ -68,6 +69,12 @@ struct Scene {
     std::vector<Vec3f> motion_vertices;
     std::vector<Vec3f> motion_normals;
 
+    // --- shared geometry (instance.h): prototypes in object space, placed by instances ---
+    std::vector<Prototype> prototypes;
+    std::vector<Instance> instances;
+    std::vector<uint32_t> instance_materials;  // per instance, its slots' scene materials (Instance::first_material)
+    std::vector<Transform> instance_close;     // moving instances' transforms at shutter close (Instance::motion)
+
     std::vector<Material> materials;    // materials[0] always exists (default grey diffuse)
     std::vector<Light> lights;
     Vec3f world_color{0.0f, 0.0f, 0.0f};  // constant environment radiance, or world_map's strength
@@ -86,6 +93,29 @@ struct Scene {
     // usable is listed in dropped.skipped_meshes. Returns triangles added.
     size_t add_mesh(const MeshInput& mesh);
     uint32_t add_material(const Material& m);  // returns its index
+
+    // Shared geometry (instancing.cpp). add_prototype validates a mesh's
+    // triangles as add_mesh does, but in object space (object_to_world and
+    // motion are ignored), and stores them once; material ids are kept as
+    // slots, resolved per instance. Returns the prototype's index, or
+    // kNoPrototype when no triangle is usable (listed in dropped).
+    static constexpr uint32_t kNoPrototype = 0xffffffffu;
+    uint32_t add_prototype(const MeshInput& mesh);
+    // Places prototype `prototype` once per transform, each with the same
+    // material slots (scene material per slot) and object name. With
+    // `close_transforms` (motion blur; null = none), instance i moves from
+    // transforms[i] at shutter open to close_transforms[i] at close. An
+    // instance whose transform is not invertible (or not finite; for a
+    // moving one at either end or mid-shutter) is skipped and reported in dropped. Instances of an emissive material are flattened
+    // into world-space triangles instead (add_mesh), so that next-event
+    // estimation samples them. Throws std::invalid_argument for an unknown
+    // prototype or material. Returns the instances placed (either way).
+    size_t add_instances(uint32_t prototype, const Transform* transforms, size_t count,
+                         const std::vector<uint32_t>& material_slots, const std::string& name,
+                         const Transform* close_transforms = nullptr);
+    bool has_moving_instances() const { return !instance_close.empty(); }
+    // Triangles rendered through instances (each instance counts its prototype's).
+    size_t instanced_triangle_count() const;
 
     // Computed by finalize(); valid until the scene changes.
     SceneFeatures features;
