@@ -14,6 +14,7 @@
 #include "features.h"
 #include "light.h"
 #include "material.h"
+#include "shading_attributes.h"
 
 namespace coherent {
 
@@ -50,6 +51,7 @@ struct MeshInput {
     const float* positions_close = nullptr;
     bool moves = false;  // true when positions_close or object_to_world_close applies
     Transform object_to_world_close;
+    MeshShadingInput shading;  // UVs, tangents, texture space: read only where Scene::shading wants them
 };
 
 struct Scene {
@@ -71,6 +73,8 @@ struct Scene {
     std::vector<Light> lights;
     Vec3f world_color{0.0f, 0.0f, 0.0f};  // constant environment radiance
     Camera camera;
+    // What shader programs read (UVs, tangents, object spaces) and their images.
+    SceneShading shading;
 
     DropReport dropped;
 
