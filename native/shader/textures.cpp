@@ -25,12 +25,12 @@ struct PixelBuffer {
 // Buffers by file name. OIIO's format registry takes a plain function
 // pointer as the reader factory, so the reader finds its buffer here.
 std::mutex& registry_mutex() {
-    static std::mutex m;
-    return m;
+    static std::mutex* m = new std::mutex;  // outlives static destruction, like the texture system
+    return *m;
 }
 std::map<std::string, std::shared_ptr<const PixelBuffer>>& registry() {
-    static std::map<std::string, std::shared_ptr<const PixelBuffer>> r;
-    return r;
+    static auto* r = new std::map<std::string, std::shared_ptr<const PixelBuffer>>;
+    return *r;
 }
 
 class MemoryImageInput final : public OIIO::ImageInput {
@@ -90,24 +90,35 @@ struct TextureStore::Image {
     bool in_memory = false;
 };
 
+// One texture system for the process, never destroyed: destroying one inside
+// Blender (at Python shutdown) corrupts the heap that OpenColorIO's exit-time
+// destructors then free (a crash on quit), and one cache under one memory
+// limit is what OIIO is designed for. Scenes keep their images apart by file
+// name (in-memory images get unique names) and invalidate them when they go.
+OIIO::TextureSystem* process_texture_system() {
+    static OIIO::TextureSystem* ts = [] {
+        declare_memory_format();
+        OIIO::TextureSystem* t = OIIO::TextureSystem::create(false);
+        t->attribute("autotile", 64);
+        t->attribute("automip", 1);
+        t->attribute("accept_untiled", 1);
+        t->attribute("accept_unmipped", 1);
+        return t;
+    }();
+    return ts;
+}
+
 struct TextureStore::Oiio {
     OIIO::TextureSystem* ts = nullptr;
 };
 
 TextureStore::TextureStore(size_t cache_megabytes) : oiio_(std::make_unique<Oiio>()) {
-    declare_memory_format();
-    // A private system: several scenes (viewport + final render) must not
-    // evict each other's images or see each other's in-memory buffers go.
-    oiio_->ts = OIIO::TextureSystem::create(false);
+    oiio_->ts = process_texture_system();
     oiio_->ts->attribute("max_memory_MB", float(cache_megabytes));
-    oiio_->ts->attribute("autotile", 64);
-    oiio_->ts->attribute("automip", 1);
-    oiio_->ts->attribute("accept_untiled", 1);
-    oiio_->ts->attribute("accept_unmipped", 1);
 }
 
 TextureStore::~TextureStore() {
-    OIIO::TextureSystem::destroy(oiio_->ts);
+    for (const auto& image : images_) oiio_->ts->invalidate(OIIO::ustring(image->path), true);
     std::lock_guard<std::mutex> lock(registry_mutex());
     for (const auto& image : images_)
         if (image->in_memory) registry().erase(image->path);

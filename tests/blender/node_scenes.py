@@ -324,20 +324,139 @@ def cases():
     return c
 
 
+# -- whole scenes -------------------------------------------------------------------
+
+SCENE_SPP = 64
+SCENE_RES = 64
+
+
+def roughness_group():
+    """A node group computing roughness from a checker factor: 0.3 + 0.4 * fac."""
+    group = bpy.data.node_groups.new("roughness_from_fac", "ShaderNodeTree")
+    group.inputs.new("NodeSocketFloat", "fac")
+    group.outputs.new("NodeSocketFloat", "roughness")
+    gi, go = group.nodes.new("NodeGroupInput"), group.nodes.new("NodeGroupOutput")
+    m = group.nodes.new("ShaderNodeMath")
+    m.operation = "MULTIPLY_ADD"
+    m.inputs[1].default_value, m.inputs[2].default_value = 0.4, 0.3
+    group.links.new(gi.outputs[0], m.inputs[0])
+    group.links.new(m.outputs[0], go.inputs[0])
+    return group
+
+
+def textured_scene():
+    """A lit cube on a ground plane, both textured through UVs, a Mapping node and a node group."""
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    scene = bpy.context.scene
+    bpy.ops.mesh.primitive_plane_add(size=6.0)
+    ground = bpy.context.active_object
+    bpy.ops.mesh.primitive_cube_add(size=1.2, location=(0.0, 0.0, 0.6), rotation=(0.0, 0.0, 0.5))
+    cube = bpy.context.active_object
+    material = bpy.data.materials.new("textured")
+    material.use_nodes = True
+    nt = material.node_tree
+    bsdf = nt.nodes["Principled BSDF"]
+    tex = node(nt, "ShaderNodeTexImage", interpolation="Linear", extension="REPEAT")
+    tex.image = make_image("albedo", 16, 16, is_float=False, colorspace="sRGB")
+    coord = node(nt, "ShaderNodeTexCoord")
+    mapping = node(nt, "ShaderNodeMapping", vector_type="POINT")
+    mapping.inputs["Scale"].default_value = (2.0, 3.0, 1.0)
+    mapping.inputs["Rotation"].default_value = (0.0, 0.0, 0.4)
+    nt.links.new(coord.outputs["UV"], mapping.inputs[0])
+    nt.links.new(mapping.outputs[0], tex.inputs["Vector"])
+    nt.links.new(tex.outputs["Color"], bsdf.inputs["Base Color"])
+    checker = node(nt, "ShaderNodeTexChecker")
+    checker.inputs["Scale"].default_value = 4.0
+    group = node(nt, "ShaderNodeGroup")
+    group.node_tree = roughness_group()
+    nt.links.new(checker.outputs["Fac"], group.inputs[0])
+    nt.links.new(group.outputs[0], bsdf.inputs["Roughness"])
+    for ob in (ground, cube):
+        ob.data.materials.append(material)
+    sun = bpy.data.objects.new("sun", bpy.data.lights.new("sun", "SUN"))
+    sun.data.energy = 3.0
+    sun.rotation_euler = (0.6, 0.2, 0.8)
+    scene.collection.objects.link(sun)
+    cam = bpy.data.objects.new("cam", bpy.data.cameras.new("cam"))
+    cam.location = (4.0, -4.0, 3.5)
+    cam.rotation_euler = (0.95, 0.0, 0.785)
+    scene.collection.objects.link(cam)
+    scene.camera = cam
+    world = bpy.data.worlds.new("grey")
+    world.color = (0.05, 0.05, 0.05)
+    scene.world = world
+    r = scene.render
+    r.resolution_x = r.resolution_y = SCENE_RES
+    r.resolution_percentage = 100
+    r.image_settings.file_format = "OPEN_EXR"
+    r.image_settings.color_depth = "32"
+    configure_cycles_reference(scene, SCENE_SPP)
+    scene.coherent.samples = SCENE_SPP
+    return scene
+
+
+def malformed_scene():
+    """A missing image file and node groups nested deeper than the compiler's limit."""
+    scene, plane, material = setup_scene()
+    nt, emission = fresh_tree(material)
+    tex = node(nt, "ShaderNodeTexImage")
+    tex.name = "missing_tex"
+    missing = bpy.data.images.new("missing", 4, 4)
+    missing.source = "FILE"
+    missing.filepath = "/nonexistent/missing_texture.png"
+    tex.image = missing
+    nt.links.new(tex.outputs["Color"], emission.inputs["Color"])
+    inner = None
+    for depth in range(20):
+        group = bpy.data.node_groups.new(f"level{depth}", "ShaderNodeTree")
+        group.inputs.new("NodeSocketFloat", "x")
+        group.outputs.new("NodeSocketFloat", "y")
+        gi, go = group.nodes.new("NodeGroupInput"), group.nodes.new("NodeGroupOutput")
+        if inner is None:
+            group.links.new(gi.outputs[0], go.inputs[0])
+        else:
+            g = group.nodes.new("ShaderNodeGroup")
+            g.node_tree = inner
+            group.links.new(gi.outputs[0], g.inputs[0])
+            group.links.new(g.outputs[0], go.inputs[0])
+        inner = group
+    top = node(nt, "ShaderNodeGroup")
+    top.name = "deep_group"
+    top.node_tree = inner
+    u, _, _ = separate(nt, pixel_uv(nt))
+    nt.links.new(u, top.inputs[0])
+    # Strength = 1 + what the too-deep group gives (its default, 0): the magenta stays visible.
+    add = node(nt, "ShaderNodeMath", operation="ADD")
+    add.inputs[1].default_value = 1.0
+    nt.links.new(top.outputs[0], add.inputs[0])
+    nt.links.new(add.outputs[0], emission.inputs["Strength"])
+    return scene
+
+
+def render_both(scene, out_dir, name, engines=("CYCLES", "COHERENT")):
+    for engine in engines:
+        scene.render.engine = engine
+        scene.render.filepath = os.path.join(out_dir, f"{name}_{engine.lower()}.exr")
+        bpy.ops.render.render(write_still=True)
+    print(f"NODE_CASE {name}")
+    sys.stdout.flush()
+
+
 def main():
     args = sys.argv[sys.argv.index("--") + 1:]
     out_dir, names = args[0], args[1:]
+    if names == ["scene_textured"]:
+        render_both(textured_scene(), out_dir, "scene_textured")
+        return
+    if names == ["malformed"]:
+        render_both(malformed_scene(), out_dir, "malformed", engines=("COHERENT",))
+        return
     scene, plane, material = setup_scene()
     all_cases = cases()
     for name in names or list(all_cases):
         nt, emission = fresh_tree(material)
         nt.links.new(all_cases[name](nt), emission.inputs["Color"])
-        for engine in ("CYCLES", "COHERENT"):
-            scene.render.engine = engine
-            scene.render.filepath = os.path.join(out_dir, f"{name}_{engine.lower()}.exr")
-            bpy.ops.render.render(write_still=True)
-        print(f"NODE_CASE {name}")
-        sys.stdout.flush()
+        render_both(scene, out_dir, name)
 
 
 if __name__ == "__main__":
