@@ -266,21 +266,21 @@ class MaterialConverter:
             color = self._color(material, node, "Color")
             if self._value(material, node, "Roughness", check_link=False) > 0.0:
                 self._warn(material, "Diffuse BSDF roughness (Oren-Nayar) is not supported, using Lambert")
-            flat.add_closure(weight, self._diffuse(color))
+            flat.add_closure(weight, self._with_normal(node, self._diffuse(color)))
         elif kind in ("ShaderNodeBsdfGlossy", "ShaderNodeBsdfAnisotropic"):
             if kind == "ShaderNodeBsdfAnisotropic" and abs(self._value(material, node, "Anisotropy", check_link=False)) > 0.0:
                 self._warn(material, "anisotropy is not supported, using isotropic Glossy")
             roughness = 0.0 if getattr(node, "distribution", "") == "SHARP" else self._value(material, node, "Roughness")
-            flat.add_closure(weight, dict(_DEFAULT_CLOSURE, base_color=self._color(material, node, "Color"),
-                                          metallic=1.0, roughness=roughness))
+            flat.add_closure(weight, self._with_normal(node, dict(
+                _DEFAULT_CLOSURE, base_color=self._color(material, node, "Color"), metallic=1.0, roughness=roughness)))
         elif kind in ("ShaderNodeBsdfGlass", "ShaderNodeBsdfRefraction"):
             if kind == "ShaderNodeBsdfRefraction":
                 self._warn(material, "Refraction BSDF approximated by Glass BSDF (adds reflection)")
             roughness = 0.0 if getattr(node, "distribution", "") == "SHARP" else self._value(material, node, "Roughness")
             ior = self._constant_value(material, node, "IOR")
-            flat.add_closure(weight, dict(_DEFAULT_CLOSURE, base_color=self._color(material, node, "Color"),
-                                          roughness=roughness, transmission=1.0, ior=max(ior, 1e-3),
-                                          specular=_specular_from_ior(max(ior, 1e-3))))
+            flat.add_closure(weight, self._with_normal(node, dict(
+                _DEFAULT_CLOSURE, base_color=self._color(material, node, "Color"), roughness=roughness,
+                transmission=1.0, ior=max(ior, 1e-3), specular=_specular_from_ior(max(ior, 1e-3)))))
         elif kind == "ShaderNodeEmission":
             color = self._color(material, node, "Color")
             strength = self._value(material, node, "Strength")
@@ -310,9 +310,7 @@ class MaterialConverter:
             "ior": ior,
             "principled_diffuse": True,
         }
-        normal = node.inputs.get("Normal")
-        if normal is not None and _linked_source(normal) is not None:
-            closure["normal"] = self._graph.input_value(normal, 3)
+        self._with_normal(node, closure)
         ignored = [name for name, unused in (
             ("Subsurface", 0.0), ("Sheen", 0.0), ("Clearcoat", 0.0), ("Anisotropic", 0.0), ("Specular Tint", 0.0),
         ) if name in node.inputs and self._value(material, node, name, check_link=False) > unused]
@@ -337,6 +335,13 @@ class MaterialConverter:
         scaled = b.emit("VECTOR_MATH", shader_compiler.VECTOR_MATH_OPS.index("SCALE"),
                         [(color, 3), ((0.0, 0.0, 0.0), 3), ((0.0, 0.0, 0.0), 3), (strength, 1)], (3, 1))[0]
         flat.add_emission(weight, scaled)
+
+    def _with_normal(self, node, closure):
+        """Adds a linked Normal input (Normal Map, ...) to the closure; returns it."""
+        normal = node.inputs.get("Normal")
+        if normal is not None and _linked_source(normal) is not None:
+            closure["normal"] = self._graph.input_value(normal, 3)
+        return closure
 
     @staticmethod
     def _diffuse(color):

@@ -300,6 +300,48 @@ def group_case(nt):
     return combine(nt, top.outputs[0], muted.outputs[0], 0.5)
 
 
+def normal_map_case(space):
+    """Diffuse plane, normal from an image through a Normal Map node, lit by a sun (direct light only).
+
+    Flat plane, constant tangents, pixel-snapped normal texels, a sun of zero
+    angle and no bounces: every pixel's radiance is deterministic.
+    """
+    def build(nt):
+        return ("normal_map", space)
+    return build
+
+
+def build_normal_map(scene, material, space):
+    nt = material.node_tree
+    nt.nodes.clear()
+    out = nt.nodes.new("ShaderNodeOutputMaterial")
+    diffuse = node(nt, "ShaderNodeBsdfDiffuse")
+    diffuse.inputs["Color"].default_value = (0.8, 0.7, 0.6, 1.0)
+    nt.links.new(diffuse.outputs[0], out.inputs["Surface"])
+    tex = node(nt, "ShaderNodeTexImage", interpolation="Closest")
+    image = bpy.data.images.new(f"normals_{space}", 8, 8, float_buffer=True)
+    image.colorspace_settings.name = "Non-Color"
+    rng = np.random.default_rng(3)
+    xy = rng.uniform(-0.45, 0.45, (8, 8, 2)).astype(np.float32)
+    z = np.sqrt(1.0 - (xy ** 2).sum(axis=-1, keepdims=True))
+    n = np.concatenate([xy, z], axis=-1) * 0.5 + 0.5
+    image.pixels.foreach_set(np.concatenate([n, np.ones((8, 8, 1), np.float32)], axis=-1).ravel())
+    tex.image = image
+    nt.links.new(pixel_uv(nt), tex.inputs["Vector"])
+    nmap = node(nt, "ShaderNodeNormalMap", space=space)
+    nmap.inputs["Strength"].default_value = 0.8
+    nt.links.new(tex.outputs["Color"], nmap.inputs["Color"])
+    nt.links.new(nmap.outputs[0], diffuse.inputs["Normal"])
+    if "sun" not in bpy.data.objects:
+        sun = bpy.data.objects.new("sun", bpy.data.lights.new("sun", "SUN"))
+        sun.data.energy = 2.0
+        sun.data.angle = 0.0  # a point-like sun: deterministic direct light
+        sun.rotation_euler = (0.3, 0.2, 0.0)
+        scene.collection.objects.link(sun)
+    scene.cycles.max_bounces = 0
+    scene.coherent.max_bounces = 0
+
+
 def cases():
     c = {}
     for i in range(0, len(MATH_OPS), 3):
@@ -321,6 +363,8 @@ def cases():
     c["image_cubic"] = image_case("Cubic", "EXTEND", scale=1.3)
     c["image_srgb_bytes"] = image_case("Closest", "REPEAT", colorspace="sRGB", is_float=False)
     c["image_alpha"] = image_case("Closest", "REPEAT", alpha_out=True, is_float=False)
+    c["normal_map_tangent"] = normal_map_case("TANGENT")
+    c["normal_map_object"] = normal_map_case("OBJECT")
     return c
 
 
@@ -455,7 +499,11 @@ def main():
     all_cases = cases()
     for name in names or list(all_cases):
         nt, emission = fresh_tree(material)
-        nt.links.new(all_cases[name](nt), emission.inputs["Color"])
+        driver = all_cases[name](nt)
+        if isinstance(driver, tuple):  # a lit case that builds its own material
+            build_normal_map(scene, material, driver[1])
+        else:
+            nt.links.new(driver, emission.inputs["Color"])
         render_both(scene, out_dir, name)
 
 
