@@ -354,6 +354,7 @@ class MaterialConverter:
         socket = node.inputs[name]
         if _linked_source(socket) is None:
             return None
+        self._graph.consumer = f"input '{name}' of {node.bl_idname}"
         return self._graph.input_value(socket)
 
     def _value(self, material, node, name, check_link=True):

@@ -206,6 +206,7 @@ class GraphCompiler:
         self._cache = {}          # (group path, node pointer, output name) -> value
         self._warned_types = set()
         self._group_path = ()     # the group nodes we are inside, outermost first
+        self.consumer = ""        # which closure input is being compiled, for warnings
 
     # -- sockets and links ------------------------------------------------------------
 
@@ -271,7 +272,9 @@ class GraphCompiler:
         if handler is None:
             if node.bl_idname not in self._warned_types:
                 self._warned_types.add(node.bl_idname)
-                self.warn(f"node {node.bl_idname} ('{node.name}') is not supported: using the socket's default value")
+                feeding = f" (feeding {self.consumer})" if self.consumer else ""
+                self.warn(f"node {node.bl_idname} ('{node.name}'){feeding} is not supported: "
+                          f"using its output's default value")
             return socket_default(out) if hasattr(out, "default_value") else 0.0
         return handler(self, node, out)
 
