@@ -173,9 +173,9 @@ public:
     bool load(GltfLoadResult& result) {
         for (const auto& m : model_.materials) {
             Material converted = convert_material(m);
+            material_emissive_.push_back(converted.is_emissive());
             textures_.apply(m, converted);  // before any mesh: it declares the UV layers meshes provide
             material_index_.push_back(scene_.add_material(converted));
-            material_emissive_.push_back(scene_.materials.back().is_emissive());
         }
         if (!read_punctual_lights()) return false;
         decoded_.resize(model_.meshes.size());

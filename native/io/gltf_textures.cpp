@@ -96,49 +96,93 @@ uint32_t TextureImporter::uv_layer(int set) {
     return uint32_t(uv_sets_.size() - 1);
 }
 
-void TextureImporter::apply(const tinygltf::Material& in, Material& m) {
-    const tinygltf::TextureInfo& info = in.pbrMetallicRoughness.baseColorTexture;
-    bool ok = false;
+// Registers and instructions of one material's program.
+struct ProgramWriter {
+    std::shared_ptr<ShaderProgram> p = std::make_shared<ShaderProgram>();
+
+    uint16_t alloc(int width) {
+        const size_t r = p->constants.size();
+        p->constants.resize(r + size_t(width), 0.0f);
+        return uint16_t(r);
+    }
+    uint16_t constant(const Vec3f& v) {
+        const uint16_t r = alloc(3);
+        p->constants[r] = v.x;
+        p->constants[r + 1u] = v.y;
+        p->constants[r + 2u] = v.z;
+        return r;
+    }
+    uint16_t constant(float v) {
+        const uint16_t r = alloc(1);
+        p->constants[r] = v;
+        return r;
+    }
+    ShaderInstr& emit(ShaderOp op, uint16_t mode, uint32_t data = 0) {
+        ShaderInstr in;
+        in.op = op;
+        in.mode = mode;
+        in.data = data;
+        p->code.push_back(in);
+        return p->code.back();
+    }
+    // Component-wise product of vec3 registers a and b, into a new register.
+    uint16_t multiply(uint16_t a, uint16_t b) {
+        const uint16_t out = alloc(3), unused = constant(0.0f);
+        ShaderInstr& in = emit(ShaderOp::VectorMath, 2);  // Multiply
+        in.in[0] = a;
+        in.in[1] = b;
+        in.in[2] = b;
+        in.in[3] = unused;
+        in.out[0] = out;
+        return out;
+    }
+};
+
+uint16_t TextureImporter::lookup(ProgramWriter& prog, const tinygltf::TextureInfo& info, bool srgb, bool& ok) {
     const uint32_t image = image_index(info.index, ok);
-    if (!ok || info.texCoord < 0) return;
-    uint16_t flags = kImageSrgb | kImagePremultiply;  // as Blender imports it: sRGB, alpha output unused
+    if (!ok || info.texCoord < 0) {
+        ok = false;
+        return 0;
+    }
+    // As Blender imports it: colour textures sRGB, data linear; alpha output unused.
+    uint16_t flags = srgb ? uint16_t(kImageSrgb | kImagePremultiply) : uint16_t(0);
     const int sampler = model_.textures[size_t(info.index)].sampler;
     if (sampler >= 0 && size_t(sampler) < model_.samplers.size()) {
         const tinygltf::Sampler& s = model_.samplers[size_t(sampler)];
         if (s.magFilter == kNearest) flags |= 1;  // closest
         if (s.wrapS == kClampToEdge) flags |= 1 << kImageExtensionShift;
     }
-    auto p = std::make_shared<ShaderProgram>();
-    // r0-2 uv, r3-5 texture colour, r6 alpha, r7-9 factor, r10-12 base colour.
-    p->constants.assign(13, 0.0f);
-    const Vec3f factor = m.closures[0].base_color;
-    p->constants[7] = factor.x;
-    p->constants[8] = factor.y;
-    p->constants[9] = factor.z;
-    ShaderInstr coord;
-    coord.op = ShaderOp::TexCoord;
-    coord.mode = uint16_t(TexCoordKind::Uv);
-    coord.data = uv_layer(info.texCoord);
-    coord.out[0] = 0;
-    ShaderInstr tex;
-    tex.op = ShaderOp::ImageTexture;
-    tex.mode = flags;
-    tex.data = image;
-    tex.in[0] = 0;
-    tex.out[0] = 3;
-    tex.out[1] = 6;
-    ShaderInstr mul;
-    mul.op = ShaderOp::VectorMath;
-    mul.mode = 2;  // Multiply
-    mul.in[0] = 3;
-    mul.in[1] = 7;
-    mul.in[2] = 7;
-    mul.in[3] = 6;
-    mul.out[0] = 10;
-    p->code = {coord, tex, mul};
-    p->outputs.push_back({ShaderField::BaseColor, 0, 10});
-    p->uses_uv = true;
-    if (p->validate(store_of(scene_).size(), scene_.shading.uv_names.size()).empty()) m.program = std::move(p);
+    const uint16_t uv = prog.alloc(3), color = prog.alloc(3), alpha = prog.alloc(1);
+    ShaderInstr& coord = prog.emit(ShaderOp::TexCoord, uint16_t(TexCoordKind::Uv), uv_layer(info.texCoord));
+    coord.out[0] = uv;
+    ShaderInstr& tex = prog.emit(ShaderOp::ImageTexture, flags, image);
+    tex.in[0] = uv;
+    tex.out[0] = color;
+    tex.out[1] = alpha;
+    return color;
+}
+
+void TextureImporter::apply(const tinygltf::Material& in, Material& m) {
+    ProgramWriter prog;
+    Closure& c = m.closures[0];
+    bool ok = false;
+    const auto& pbr = in.pbrMetallicRoughness;
+    if (const uint16_t color = lookup(prog, pbr.baseColorTexture, true, ok); ok)
+        prog.p->outputs.push_back({ShaderField::BaseColor, 0, prog.multiply(color, prog.constant(c.base_color))});
+    // metallicRoughnessTexture: roughness in G, metalness in B (glTF), times the factors.
+    if (const uint16_t mr = lookup(prog, pbr.metallicRoughnessTexture, false, ok); ok) {
+        const uint16_t scaled = prog.multiply(mr, prog.constant(Vec3f{1.0f, c.roughness, c.metallic}));
+        prog.p->outputs.push_back({ShaderField::Roughness, 0, uint16_t(scaled + 1)});
+        prog.p->outputs.push_back({ShaderField::Metallic, 0, uint16_t(scaled + 2)});
+    }
+    if (const uint16_t e = lookup(prog, in.emissiveTexture, true, ok); ok) {
+        prog.p->outputs.push_back({ShaderField::Emission, 0, prog.multiply(e, prog.constant(m.emission))});
+        prog.p->drives_emission = true;
+        m.emission = Vec3f(0.0f);  // a textured emitter is reached by BSDF sampling, not light sampling
+    }
+    if (prog.p->outputs.empty()) return;
+    prog.p->uses_uv = true;
+    if (prog.p->validate(store_of(scene_).size(), scene_.shading.uv_names.size()).empty()) m.program = std::move(prog.p);
 }
 
 }  // namespace coherent::gltf

@@ -1,6 +1,6 @@
 // glTF textures as shader programs (native/shader): the material's
-// baseColorTexture on its TEXCOORD set, times baseColorFactor, as Blender's
-// glTF importer wires it. Images come from a file beside the .gltf (by URI)
+// baseColorTexture, metallicRoughnessTexture and emissiveTexture on their
+// TEXCOORD sets, times their factors, as Blender's glTF importer wires them. Images come from a file beside the .gltf (by URI)
 // or from the bytes embedded in the .glb / a data URI, decoded by
 // OpenImageIO; an image that cannot be read renders magenta with a warning.
 #pragma once
@@ -14,6 +14,8 @@
 
 namespace coherent::gltf {
 
+struct ProgramWriter;  // gltf_textures.cpp
+
 // A tinygltf image loader that decodes nothing: it keeps the encoded bytes of
 // embedded images (image.as_is) for TextureImporter.
 bool keep_encoded_image(tinygltf::Image* image, const int index, std::string* err, std::string* warn, int width,
@@ -24,12 +26,15 @@ public:
     TextureImporter(const tinygltf::Model& model, std::string base_dir, Scene& scene)
         : model_(model), base_dir_(std::move(base_dir)), scene_(scene) {}
 
-    // Gives `m` a shader program for `in`'s base colour texture, if it has a usable one.
+    // Gives `m` a shader program for `in`'s base colour, metallic-roughness
+    // and emissive textures, where it has usable ones.
     void apply(const tinygltf::Material& in, Material& m);
     // The TEXCOORD sets the programs read: scene UV layer i is TEXCOORD_{uv_sets()[i]}.
     const std::vector<int>& uv_sets() const { return uv_sets_; }
 
 private:
+    // The texture's RGB at its TEXCOORD set, in a new vec3 register of `prog`.
+    uint16_t lookup(ProgramWriter& prog, const tinygltf::TextureInfo& info, bool srgb, bool& ok);
     uint32_t image_index(int texture, bool& ok);
     uint32_t uv_layer(int set);
     uint32_t add_embedded(const tinygltf::Image& image, const std::string& label);

@@ -120,3 +120,23 @@ def test_missing_image_renders_magenta_with_a_warning(cli, tmp_path):
     assert "missing.png" in log and "magenta" in log, log
     for rgb in means.values():
         assert rgb[1] < 0.05 * rgb[0] and abs(rgb[0] - rgb[2]) < 0.05 * rgb[0], means
+
+
+def test_emissive_and_metallic_roughness_textures(cli, tmp_path):
+    """The texture as emission (factor 1) on a black surface that also has a metallic-roughness
+    texture: with no other light the camera sees exactly the decoded texels, and a material with
+    several textured outputs loads as one program. (What the metallic-roughness texture does to
+    reflection is not checked here.)"""
+    scene = tmp_path / "emissive.glb"
+    doc, blob = quad_document({"bufferView": 4, "mimeType": "image/png"})
+    doc["materials"] = [{"pbrMetallicRoughness": {"baseColorFactor": [0, 0, 0, 1], "metallicFactor": 0.0,
+                                                  "roughnessFactor": 1.0, "metallicRoughnessTexture": {"index": 0}},
+                         "emissiveTexture": {"index": 0}, "emissiveFactor": [1.0, 1.0, 1.0]}]
+    image = png_bytes(TEXELS)
+    blob += b"\x00" * (-len(blob) % 4)
+    doc["bufferViews"].append({"buffer": 0, "byteOffset": len(blob), "byteLength": len(image)})
+    write_glb(scene, doc, blob + image)
+    means, log = quarters(cli, scene, tmp_path)
+    expected = {"top_left": (1, 0, 0), "top_right": (0, 1, 0), "bottom_left": (0, 0, 1), "bottom_right": (1, 1, 1)}
+    for quarter, rgb in expected.items():
+        assert means[quarter] == pytest.approx(rgb, abs=1e-5), (quarter, means[quarter], log)
