@@ -424,11 +424,13 @@ inline void shade_hit(const PathContext& ctx, const PathSampler& ps, PathState& 
     }
 
     std::optional<Material> scratch;
+    const Vec3f interpolated_n = sp.n;
     const Material& mat = material_at(scene, hit, sp, scratch);
     if (mat.is_emissive()) add_emission<kLights>(ctx, s, mat, sp);
     if (s.last_ray) return;
 
-    const Bsdf bsdf(mat, sp.n, sp.ng_f, sp.wo, sp.front, kGlass);
+    const bool perturbed = sp.n.x != interpolated_n.x || sp.n.y != interpolated_n.y || sp.n.z != interpolated_n.z;
+    const Bsdf bsdf(mat, sp.n, sp.ng_f, sp.wo, sp.front, kGlass, perturbed ? &interpolated_n : nullptr);
     if (bsdf.empty()) return;
     if constexpr (kLights) queue_shadow_ray(ctx, ps, s, bsdf, sp);
     if (!survive_roulette(ctx, ps, s)) return;
