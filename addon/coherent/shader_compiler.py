@@ -43,7 +43,7 @@ TEX_COORDS = {"UV": 0, "Generated": 1, "Object": 2, "Normal": 3}
 NORMAL_MAP_SPACES = {"TANGENT": 0, "OBJECT": 1, "WORLD": 2}
 IMAGE_INTERPOLATION = {"Linear": 0, "Closest": 1, "Cubic": 2, "Smart": 2}
 IMAGE_EXTENSION = {"REPEAT": 0, "EXTEND": 1, "CLIP": 2}
-IMAGE_SRGB, IMAGE_UNASSOCIATE, IMAGE_PREMULTIPLY, IMAGE_IGNORE_ALPHA = 0x10, 0x20, 0x40, 0x80
+IMAGE_SRGB, IMAGE_UNASSOCIATE, IMAGE_PREMULTIPLY, IMAGE_IGNORE_ALPHA, IMAGE_BYTES = 0x10, 0x20, 0x40, 0x80, 0x100
 CLAMP_BIT = 0x100          # Math clamp / Mix clamp factor
 CLAMP_RESULT_BIT = 0x200   # Mix (colour) clamp result
 NON_UNIFORM_BIT = 0x400    # Mix (vector) per-component factor
@@ -469,7 +469,7 @@ def image_flags(node, image, alpha_linked):
     if alpha_mode == "NONE":
         flags |= IMAGE_IGNORE_ALPHA
     elif not is_data and alpha_mode == "STRAIGHT" and not alpha_linked:
-        flags |= IMAGE_PREMULTIPLY
+        flags |= IMAGE_PREMULTIPLY | (0 if getattr(image, "is_float", False) else IMAGE_BYTES)
     elif not is_data and alpha_mode == "PREMUL" and alpha_linked:
         flags |= IMAGE_UNASSOCIATE
     return flags

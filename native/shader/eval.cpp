@@ -110,7 +110,12 @@ void image_texture(const Scene& scene, const ShaderInstr& in, const Registers& r
     if ((in.mode & kImageUnassociate) && alpha != 1.0f && alpha != 0.0f)
         for (int k = 0; k < 3; ++k) c[k] /= alpha;
     if (in.mode & kImagePremultiply)
-        for (int k = 0; k < 3; ++k) c[k] *= alpha;
+        for (int k = 0; k < 3; ++k) {
+            c[k] *= alpha;
+            // Cycles: byte = byte * alpha_byte / 255 in integers (truncated); the
+            // epsilon keeps exact quotients from landing a float ulp below.
+            if (in.mode & kImageBytes) c[k] = std::floor(255.0f * std::clamp(c[k], 0.0f, 1.0f) + 1e-3f) / 255.0f;
+        }
     if (in.mode & kImageSrgb)
         for (int k = 0; k < 3; ++k) c[k] = srgb_to_linear(c[k]);
     r.set(in.out[0], Vec3f{c[0], c[1], c[2]});

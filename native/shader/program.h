@@ -71,6 +71,8 @@ enum ImageFlags : uint16_t {
     kImagePremultiply = 0x40,     // multiply the colour by alpha (straight image, Alpha unused: Cycles'
                                   // colour output is then associated)
     kImageIgnoreAlpha = 0x80,     // alpha mode None: alpha is 1
+    kImageBytes = 0x100,          // 8-bit image: a premultiplied colour is truncated to 8 bits, as Cycles
+                                  // associates byte images when it loads them
 };
 
 // Closure parameters a program can drive. Vec3 fields read three registers.

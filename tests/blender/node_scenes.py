@@ -244,11 +244,13 @@ def make_image(name, width, height, alpha=False, is_float=True, colorspace="Non-
 
 
 def image_case(interpolation, extension, res_uv=RES, colorspace="Non-Color", is_float=True, scale=1.0,
-               alpha_out=False):
+               alpha_out=False, alpha_mode="STRAIGHT", with_alpha=None):
     def build(nt):
         tex = node(nt, "ShaderNodeTexImage", interpolation=interpolation, extension=extension)
-        tex.image = make_image(f"pattern_{interpolation}_{extension}_{colorspace}_{is_float}", 8, 8,
-                               alpha=alpha_out, is_float=is_float, colorspace=colorspace)
+        tex.image = make_image(f"pattern_{interpolation}_{extension}_{colorspace}_{is_float}_{alpha_mode}", 8, 8,
+                               alpha=alpha_out if with_alpha is None else with_alpha, is_float=is_float,
+                               colorspace=colorspace)
+        tex.image.alpha_mode = alpha_mode
         uv = pixel_uv(nt, res_uv)
         if scale != 1.0:
             mapping = node(nt, "ShaderNodeMapping", vector_type="POINT")
@@ -264,6 +266,28 @@ def image_case(interpolation, extension, res_uv=RES, colorspace="Non-Color", is_
             return mul.outputs[0]
         return tex.outputs["Color"]
     return build
+
+
+def snapped(nt, vector, step):
+    snap = node(nt, "ShaderNodeVectorMath", operation="SNAP")
+    snap.inputs[1].default_value = (step, step, step)
+    nt.links.new(vector, snap.inputs[0])
+    return snap.outputs[0]
+
+
+def texcoord_case(nt):
+    """Generated, Object and Normal outputs of Texture Coordinate and a UV Map node, snapped per pixel."""
+    coord = node(nt, "ShaderNodeTexCoord")
+    uvmap = node(nt, "ShaderNodeUVMap", uv_map="UVMap")
+    gen_x = separate(nt, snapped(nt, coord.outputs["Generated"], 1.0 / RES))[0]
+    obj_y = separate(nt, snapped(nt, coord.outputs["Object"], 2.0 / RES))[1]
+    nrm_z = separate(nt, coord.outputs["Normal"])[2]
+    uv_x = separate(nt, snapped(nt, uvmap.outputs["UV"], 1.0 / RES))[0]
+    blue = node(nt, "ShaderNodeMath", operation="MULTIPLY_ADD")
+    nt.links.new(uv_x, blue.inputs[0])
+    blue.inputs[1].default_value = 0.5
+    nt.links.new(nrm_z, blue.inputs[2])
+    return combine(nt, gen_x, affine(nt, obj_y, 0.5, 0.5), blue.outputs[0])
 
 
 def group_case(nt):
@@ -363,6 +387,12 @@ def cases():
     c["image_cubic"] = image_case("Cubic", "EXTEND", scale=1.3)
     c["image_srgb_bytes"] = image_case("Closest", "REPEAT", colorspace="sRGB", is_float=False)
     c["image_alpha"] = image_case("Closest", "REPEAT", alpha_out=True, is_float=False)
+    # Alpha output unused: Cycles' colour is then associated (premultiplied) for straight images.
+    c["image_straight_colour"] = image_case("Closest", "REPEAT", colorspace="sRGB", is_float=False,
+                                            with_alpha=True)
+    # Premultiplied image with the Alpha output used: the colour is unassociated.
+    c["image_premul_alpha"] = image_case("Closest", "REPEAT", alpha_out=True, alpha_mode="PREMUL")
+    c["texcoords"] = texcoord_case
     c["normal_map_tangent"] = normal_map_case("TANGENT")
     c["normal_map_object"] = normal_map_case("OBJECT")
     return c
