@@ -5,6 +5,7 @@
 #include <OpenImageIO/imageio.h>
 
 #include <algorithm>
+#include <cmath>
 #include <filesystem>
 #include <memory>
 
@@ -37,6 +38,37 @@ std::string extension_for(const std::string& mime) {
     if (mime == "image/png") return ".png";
     if (mime == "image/webp") return ".webp";
     return ".png";
+}
+
+// A finite number, or `fallback`.
+double number_or(const tinygltf::Value& v, double fallback) {
+    return v.IsNumber() && std::isfinite(v.GetNumberAsDouble()) ? v.GetNumberAsDouble() : fallback;
+}
+
+// KHR_texture_transform of a texture reference: uv' = T R S uv in glTF's UV
+// space (origin at the top left), and the TEXCOORD set it may override.
+struct UvTransform {
+    double offset[2] = {0.0, 0.0}, rotation = 0.0, scale[2] = {1.0, 1.0};
+    int tex_coord = -1;
+    bool identity() const {
+        return offset[0] == 0.0 && offset[1] == 0.0 && rotation == 0.0 && scale[0] == 1.0 && scale[1] == 1.0;
+    }
+};
+
+UvTransform uv_transform(const tinygltf::TextureInfo& info) {
+    UvTransform t;
+    auto it = info.extensions.find("KHR_texture_transform");
+    if (it == info.extensions.end() || !it->second.IsObject()) return t;
+    const tinygltf::Value& ext = it->second;
+    auto pair = [&](const char* key, double out[2]) {
+        if (!ext.Has(key) || !ext.Get(key).IsArray() || ext.Get(key).ArrayLen() != 2) return;
+        for (int k = 0; k < 2; ++k) out[k] = number_or(ext.Get(key).Get(k), out[k]);
+    };
+    pair("offset", t.offset);
+    pair("scale", t.scale);
+    if (ext.Has("rotation")) t.rotation = number_or(ext.Get("rotation"), 0.0);
+    if (ext.Has("texCoord")) t.tex_coord = int(number_or(ext.Get("texCoord"), -1.0));
+    return t;
 }
 
 TextureStore& store_of(Scene& scene) {
@@ -125,6 +157,27 @@ struct ProgramWriter {
         p->code.push_back(in);
         return p->code.back();
     }
+    // a * b + c of vec3 registers (VectorMath Multiply Add), into a new register.
+    uint16_t multiply_add(uint16_t a, uint16_t b, uint16_t c) {
+        const uint16_t out = alloc(3), unused = constant(0.0f);
+        ShaderInstr& in = emit(ShaderOp::VectorMath, 26);  // Multiply Add
+        in.in[0] = a;
+        in.in[1] = b;
+        in.in[2] = c;
+        in.in[3] = unused;
+        in.out[0] = out;
+        return out;
+    }
+    // (x, x, 0) from float register x.
+    uint16_t splat2(uint16_t x) {
+        const uint16_t out = alloc(3), zero = constant(0.0f);
+        ShaderInstr& in = emit(ShaderOp::Combine, 0);
+        in.in[0] = x;
+        in.in[1] = x;
+        in.in[2] = zero;
+        in.out[0] = out;
+        return out;
+    }
     // Component-wise product of vec3 registers a and b, into a new register.
     uint16_t multiply(uint16_t a, uint16_t b) {
         const uint16_t out = alloc(3), unused = constant(0.0f);
@@ -152,9 +205,24 @@ uint16_t TextureImporter::lookup(ProgramWriter& prog, const tinygltf::TextureInf
         if (s.magFilter == kNearest) flags |= 1;  // closest
         if (s.wrapS == kClampToEdge) flags |= 1 << kImageExtensionShift;
     }
-    const uint16_t uv = prog.alloc(3), color = prog.alloc(3), alpha = prog.alloc(1);
-    ShaderInstr& coord = prog.emit(ShaderOp::TexCoord, uint16_t(TexCoordKind::Uv), uv_layer(info.texCoord));
+    const UvTransform xf = uv_transform(info);
+    uint16_t uv = prog.alloc(3);
+    ShaderInstr& coord = prog.emit(ShaderOp::TexCoord, uint16_t(TexCoordKind::Uv),
+                                   uv_layer(xf.tex_coord >= 0 ? xf.tex_coord : info.texCoord));
     coord.out[0] = uv;
+    if (!xf.identity()) {
+        // The extension's T R S (its GLSL matrices are column-major: u' = ox + c sx u - s sy v,
+        // v' = oy + s sx u + c sy v), written for Blender's v (= 1 - glTF v):
+        // u' = c sx u + s sy v + ox - s sy;  v' = -s sx u + c sy v + 1 - oy - c sy.
+        const double c = std::cos(xf.rotation), sn = std::sin(xf.rotation);
+        const double sx = xf.scale[0], sy = xf.scale[1], ox = xf.offset[0], oy = xf.offset[1];
+        const uint16_t along_u = prog.constant(Vec3f{float(c * sx), float(-sn * sx), 0.0f});
+        const uint16_t along_v = prog.constant(Vec3f{float(sn * sy), float(c * sy), 0.0f});
+        const uint16_t shift = prog.constant(Vec3f{float(ox - sn * sy), float(1.0 - oy - c * sy), 0.0f});
+        const uint16_t partial = prog.multiply_add(prog.splat2(uv), along_u, shift);
+        uv = prog.multiply_add(prog.splat2(uint16_t(uv + 1)), along_v, partial);
+    }
+    const uint16_t color = prog.alloc(3), alpha = prog.alloc(1);
     ShaderInstr& tex = prog.emit(ShaderOp::ImageTexture, flags, image);
     tex.in[0] = uv;
     tex.out[0] = color;

@@ -140,3 +140,26 @@ def test_emissive_and_metallic_roughness_textures(cli, tmp_path):
     expected = {"top_left": (1, 0, 0), "top_right": (0, 1, 0), "bottom_left": (0, 0, 1), "bottom_right": (1, 1, 1)}
     for quarter, rgb in expected.items():
         assert means[quarter] == pytest.approx(rgb, abs=1e-5), (quarter, means[quarter], log)
+
+
+@pytest.mark.parametrize("transform, expected", [
+    # Half a texture to the right: each quarter shows its horizontal neighbour (repeat wraps).
+    ({"offset": [0.5, 0.0]}, {"top_left": (0, 1, 0), "top_right": (1, 0, 0), "bottom_left": (1, 1, 1),
+                              "bottom_right": (0, 0, 1)}),
+    # A quarter turn: u' = -v, v' = u in glTF's UV space (the extension's column-major matrices).
+    ({"rotation": 1.5707963}, {"top_left": (0, 1, 0), "top_right": (1, 1, 1), "bottom_left": (1, 0, 0),
+                               "bottom_right": (0, 0, 1)}),
+])
+def test_khr_texture_transform(cli, tmp_path, transform, expected):
+    scene = tmp_path / "transformed.glb"
+    doc, blob = quad_document({"bufferView": 4, "mimeType": "image/png"})
+    doc["extensionsUsed"] = ["KHR_texture_transform"]
+    doc["materials"] = [{"pbrMetallicRoughness": {"baseColorFactor": [0, 0, 0, 1]}, "emissiveFactor": [1, 1, 1],
+                         "emissiveTexture": {"index": 0, "extensions": {"KHR_texture_transform": transform}}}]
+    image = png_bytes(TEXELS)
+    blob += b"\x00" * (-len(blob) % 4)
+    doc["bufferViews"].append({"buffer": 0, "byteOffset": len(blob), "byteLength": len(image)})
+    write_glb(scene, doc, blob + image)
+    means, log = quarters(cli, scene, tmp_path)
+    for quarter, rgb in expected.items():
+        assert means[quarter] == pytest.approx(rgb, abs=1e-5), (quarter, means, log)
