@@ -103,6 +103,14 @@ def _format_time(seconds):
     return f"{hours}:{minutes:02d}:{secs:02d}" if hours else f"{minutes:02d}:{secs:02d}"
 
 
+def _texture_summary(scene):
+    """', N images, X MB texture cache' when the scene has image textures, else ''."""
+    textures = scene.texture_stats()
+    if not textures["images"]:
+        return ""
+    return f", {textures['images']} images, {textures['memory_bytes'] / 2**20:.1f} MB texture cache"
+
+
 def _format_error(estimate):
     """The relative RMSE estimate as a percentage, or "n/a" before 2 passes."""
     return "n/a" if estimate is None else f"{100.0 * estimate:.1f} %"
@@ -322,7 +330,7 @@ class CoherentRenderEngine(bpy.types.RenderEngine):
         print(f"Coherent: {state} {width}x{height}, {stats['spp']} spp, "
               f"{nscene.triangle_count:,} triangles: "
               f"export {exported.seconds:.2f} s, BVH {build_seconds:.2f} s, render {stats['seconds']:.2f} s, "
-              f"{stats['mrays_per_s']:.1f} Mrays/s")
+              f"{stats['mrays_per_s']:.1f} Mrays/s{_texture_summary(nscene)}")
         # What the accuracy cost: the final estimate, time and samples.
         summary = (f"Coherent: error {_format_error(stats['error_estimate'])} after {stats['spp']} samples "
                    f"in {stats['seconds']:.2f} s")

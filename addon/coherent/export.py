@@ -23,7 +23,7 @@ from itertools import chain
 
 import numpy as np
 
-from . import materials, motion
+from . import images, materials, motion
 from .world import export_world
 
 # Object types that evaluate to a surface we can triangulate.
@@ -41,7 +41,8 @@ class ExportError(RuntimeError):
 class MeshArrays:
     """Triangles of one mesh datablock in object space, ready for Scene.add_mesh."""
 
-    __slots__ = ("positions", "indices", "normals", "material_index", "max_material_index")
+    __slots__ = ("positions", "indices", "normals", "material_index", "max_material_index", "shading",
+                 "shading_request")
 
     def __init__(self, positions, indices, normals, material_index):
         self.positions = positions      # float32 (N, 3)
@@ -49,14 +50,76 @@ class MeshArrays:
         self.normals = normals          # float32 (M, 3, 3) or None (flat shading)
         self.material_index = material_index  # int32 (M,) or None when all zero
         self.max_material_index = int(material_index.max()) if material_index is not None else 0
+        self.shading = None          # add_mesh keyword arguments: uvs, tangents, generated (shading_arrays)
+        self.shading_request = None  # the ShadingRequest they answer
 
     @property
     def triangle_count(self):
         return self.indices.shape[0]
 
 
-def mesh_arrays(mesh):
-    """Extracts triangles from a bpy Mesh with foreach_get; None if it has no faces."""
+class ShadingRequest(tuple):
+    """What the materials' shader programs read from meshes: (uv_names, tangent_uv, objects)."""
+
+    @classmethod
+    def of(cls, converter):
+        if not converter.uv_names and "objects" not in converter.uses and "tangents" not in converter.uses:
+            return None
+        tangent_uv = converter.tangent_uv if "tangents" in converter.uses else None
+        return cls((tuple(converter.uv_names), tangent_uv, "objects" in converter.uses))
+
+
+def _uv_layer(mesh, name):
+    if name:
+        return mesh.uv_layers.get(name)
+    return next((layer for layer in mesh.uv_layers if layer.active_render), None)
+
+
+def shading_arrays(mesh, request, warnings):
+    """add_mesh's uvs / tangents / generated arguments for `request` (foreach_get, no Python loops)."""
+    uv_names, tangent_uv, objects = request
+    tris = mesh.loop_triangles
+    m = len(tris)
+    loops = np.empty(m * 3, dtype=np.int32)
+    tris.foreach_get("loops", loops)
+    loop_count = len(mesh.loops)
+    uvs = []
+    for name in uv_names:
+        layer = _uv_layer(mesh, name)
+        if layer is None:
+            uvs.append(None)
+            continue
+        flat = np.empty(loop_count * 2, dtype=np.float32)
+        layer.data.foreach_get("uv", flat)
+        uvs.append(flat.reshape(-1, 2)[loops].reshape(m, 3, 2))
+    args = {"uvs": uvs}
+    if tangent_uv is not None:
+        layer = _uv_layer(mesh, tangent_uv)
+        try:
+            if layer is None:
+                raise RuntimeError(f"no UV map '{tangent_uv or 'active render'}'")
+            mesh.calc_tangents(uvmap=layer.name)
+            tangent = np.empty(loop_count * 3, dtype=np.float32)
+            sign = np.empty(loop_count, dtype=np.float32)
+            mesh.loops.foreach_get("tangent", tangent)
+            mesh.loops.foreach_get("bitangent_sign", sign)
+            corners = np.concatenate([tangent.reshape(-1, 3), sign.reshape(-1, 1)], axis=1)
+            args["tangents"] = corners[loops].reshape(m, 3, 4)
+        except RuntimeError as error:
+            warnings.append(f"Mesh '{mesh.name}': no tangents for normal maps ({error})")
+    if objects:
+        size = np.array(getattr(mesh, "texspace_size", (1.0, 1.0, 1.0)), dtype=np.float64)
+        location = np.array(getattr(mesh, "texspace_location", (0.0, 0.0, 0.0)), dtype=np.float64)
+        scale = np.where(size != 0.0, 0.5 / np.where(size != 0.0, size, 1.0), 0.0)
+        args["generated"] = (tuple(scale), tuple(0.5 - location * scale))
+    return args
+
+
+def mesh_arrays(mesh, shading=None, warnings=None):
+    """Extracts triangles from a bpy Mesh with foreach_get; None if it has no faces.
+
+    shading: a ShadingRequest; the arrays then also carry the UVs, tangents
+    and texture space it asks for."""
     mesh.calc_loop_triangles()
     tris = mesh.loop_triangles
     m = len(tris)
@@ -89,7 +152,11 @@ def mesh_arrays(mesh):
         tris.foreach_get("split_normals", normals)
         normals = normals.reshape(m, 3, 3)
 
-    return MeshArrays(positions.reshape(n, 3), indices.reshape(m, 3), normals, material_index)
+    arrays = MeshArrays(positions.reshape(n, 3), indices.reshape(m, 3), normals, material_index)
+    if shading is not None:
+        arrays.shading = shading_arrays(mesh, shading, warnings if warnings is not None else [])
+        arrays.shading_request = shading
+    return arrays
 
 
 def _original_pointer(ob):
@@ -172,6 +239,7 @@ class ExportResult:
         self.meshes = 0      # unique meshes extracted
         self.instances = 0   # mesh instances added
         self.lights = 0
+        self.texture_bytes = 0  # image texture cache in use after export
 
 
 class InstanceGroup:
@@ -235,7 +303,10 @@ class SceneExporter:
         self.camera_override = camera_override
         self.need_camera = need_camera  # False for viewports, which bring their own view
         self.result = ExportResult(native.Scene())
-        self.materials = materials.MaterialConverter(self.result.scene, self.result.warnings)
+        self.materials = materials.MaterialConverter(self.result.scene, self.result.warnings,
+                                                     fold=getattr(native, "fold_shader_constants", None),
+                                                     images=images.ImageExporter(self.result.scene))
+        self.shading = None  # ShadingRequest of the materials, set by export()
         self.mesh_cache = mesh_cache if mesh_cache is not None else MeshCache()
         self.used_keys = set()  # mesh_cache keys this export rendered
         self._unsupported_types = set()
@@ -248,6 +319,10 @@ class SceneExporter:
         bscene = depsgraph.scene  # evaluated scene
         if self.need_camera:
             self._export_camera(bscene)
+        # Shader programs decide which mesh attributes are exported, so every
+        # material is converted before the first mesh.
+        self.materials.prepare([i for i in depsgraph.ids if type(i).__name__ == "Material"])
+        self.shading = ShadingRequest.of(self.materials)
 
         # Since Blender 3.0 curves, text, surfaces and metaballs reach render
         # engines as an extra MESH instance whose parent is the object itself.
@@ -283,6 +358,9 @@ class SceneExporter:
         self._add_instance_groups()
 
         export_world(bscene.world, self.result.scene, self.result.warnings)
+        textures = self.result.scene.texture_stats()
+        self.result.warnings.extend(textures["warnings"])
+        self.result.texture_bytes = textures["memory_bytes"]
         summary = self.result.scene.dropped_summary
         if summary:
             self.result.warnings.append(summary)
@@ -296,19 +374,21 @@ class SceneExporter:
         key = mesh_cache_key(ob)
         self.used_keys.add(key)
         try:
-            return self.mesh_cache.lookup(key, ob)
+            arrays = self.mesh_cache.lookup(key, ob)
+            if arrays is None or arrays.shading_request == self.shading:
+                return arrays
         except KeyError:
             pass
 
         arrays = None
         data = ob.data
         if ob.type == "MESH" and data is not None and not data.is_editmode:
-            arrays = mesh_arrays(data)
+            arrays = mesh_arrays(data, self.shading, self.result.warnings)
         else:
             mesh = ob.to_mesh()
             try:
                 if mesh is not None:
-                    arrays = mesh_arrays(mesh)
+                    arrays = mesh_arrays(mesh, self.shading, self.result.warnings)
             finally:
                 ob.to_mesh_clear()
         self.mesh_cache.store(key, ob, arrays)
@@ -372,7 +452,7 @@ class SceneExporter:
         arrays = group.arrays
         self.result.scene.add_mesh(group.name, arrays.positions, arrays.indices, np.asarray(matrix, dtype=np.float32),
                                    normals=arrays.normals, material_ids=group.material_ids,
-                                   material_slots=group.slots, matrix_close=matrix_close)
+                                   material_slots=group.slots, matrix_close=matrix_close, **(arrays.shading or {}))
         self.result.instances += 1
 
     def _add_instance_groups(self):
@@ -388,8 +468,13 @@ class SceneExporter:
         for group in self._groups.values():
             if group is None or not group.matrices:
                 continue
-            if placements[group.mesh_key] == 1:
-                self._add_flattened(group, group.matrices[0], group.closes[0] if group.closes else None)
+            if placements[group.mesh_key] == 1 or any(m in self.materials.mesh_attribute_materials
+                                                      for m in group.slots):
+                # Prototypes carry no UVs or tangents yet: a mesh whose
+                # materials read them is placed as world-space copies.
+                for k, matrix in enumerate(group.matrices):
+                    self._add_flattened(group, matrix, group.closes[k] if group.closes else None)
+                group.matrices = []
                 continue
             arrays = group.arrays
             proto = prototypes.get(group.mesh_key)

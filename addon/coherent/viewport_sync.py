@@ -166,10 +166,15 @@ class SceneSync:
             return False
         self._stop_render()
         warnings = []
-        converter = materials.MaterialConverter(self.scene, warnings)
+        converter = self.exporter.materials.fresh(warnings)
         for index, material in edits:
-            closures, weights, emission = converter.convert(material)
-            self.scene.set_material(index, material.name, closures=closures, weights=weights, emission=emission)
+            closures, weights, emission, program = converter.convert(material)
+            try:
+                self.scene.set_material(index, material.name, closures=closures, weights=weights,
+                                        emission=emission, program=program)
+            except ValueError as error:  # a program reading a UV map the meshes were exported without
+                warnings.append(f"Material '{material.name}': {error}; re-render to see its textures")
+                self.scene.set_material(index, material.name, closures=closures, weights=weights, emission=emission)
         for warning in warnings:
             print(f"Coherent warning: {warning}", file=sys.stderr)
         self.counters["material_updates"] += 1

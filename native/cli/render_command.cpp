@@ -10,6 +10,7 @@
 #include "convergence_log.h"
 #include "heatmap_output.h"
 #include "io/gltf.h"
+#include "shader/textures.h"
 #include "io/image.h"
 #include "json_report.h"
 #include "options.h"
@@ -76,6 +77,8 @@ int render(const RenderOptions& options) {
     scene.finalize();
     const double load_seconds = seconds_since(load_start);
     if (!scene.dropped.empty()) std::fprintf(stderr, "coherent: warning: %s\n", scene.dropped.summary().c_str());
+    if (scene.shading.textures)
+        for (const std::string& w : scene.shading.textures->warnings()) std::fprintf(stderr, "coherent: warning: %s\n", w.c_str());
     if (g_interrupted.load()) return interrupted();
 
     // --- render -------------------------------------------------------------

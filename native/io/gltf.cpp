@@ -22,6 +22,7 @@
 
 #include "gltf_accessor.h"
 #include "gltf_blender.h"
+#include "gltf_textures.h"
 
 namespace coherent {
 namespace {
@@ -35,11 +36,6 @@ using gltf::PunctualLight;
 constexpr int kMaxNodeDepth = 256;
 constexpr size_t kMaxNodeVisits = size_t(1) << 20;
 constexpr uint32_t kInvalidIndex = std::numeric_limits<uint32_t>::max();
-
-bool skip_image(tinygltf::Image*, const int, std::string*, std::string*, int, int, const unsigned char*, int,
-                void*) {
-    return true;
-}
 
 // tinygltf reports several problems separated by newlines and may quote
 // bytes of the (possibly binary) input: keep one printable ASCII line of
@@ -165,17 +161,21 @@ struct DecodedMesh {
     std::vector<float> normals;                 // per corner (triangle_count x 9), or empty
     std::vector<uint32_t> material_ids;         // per triangle: slot
     std::vector<uint32_t> material_slots;       // slot -> scene material
+    std::vector<std::vector<float>> uvs;        // per scene UV layer: triangle_count x 3 x 2 (Blender's v), or empty
 };
 
 class Loader {
 public:
-    Loader(const tinygltf::Model& model, Scene& scene, float aspect) : model_(model), scene_(scene), aspect_(aspect) {}
+    Loader(const tinygltf::Model& model, Scene& scene, float aspect, const std::string& base_dir)
+        : model_(model), scene_(scene), aspect_(aspect), textures_(model, base_dir, scene) {}
 
     // Returns false with error_ set for structural errors (cycles, bad node indices).
     bool load(GltfLoadResult& result) {
         for (const auto& m : model_.materials) {
-            material_index_.push_back(scene_.add_material(convert_material(m)));
-            material_emissive_.push_back(scene_.materials.back().is_emissive());
+            Material converted = convert_material(m);
+            material_emissive_.push_back(converted.is_emissive());
+            textures_.apply(m, converted);  // before any mesh: it declares the UV layers meshes provide
+            material_index_.push_back(scene_.add_material(converted));
         }
         if (!read_punctual_lights()) return false;
         decoded_.resize(model_.meshes.size());
@@ -318,6 +318,7 @@ private:
         std::vector<float> positions;  // vertex_count x 3
         std::vector<uint32_t> indices;  // local to the primitive; a trailing partial triangle is ignored
         std::vector<float> normals;     // per vertex, or empty (unusable normals fall back to flat shading)
+        std::vector<std::vector<float>> uvs;  // per scene UV layer: per vertex (u, v) as in the file, or empty
         size_t vertex_count = 0, triangles = 0;
     };
 
@@ -354,6 +355,14 @@ private:
             const bool usable = gltf::read_floats(model_, it->second, 3, out.normals, why) &&
                                 out.normals.size() == out.positions.size();
             if (!usable) out.normals.clear();
+        }
+        for (int set : textures_.uv_sets()) {
+            out.uvs.emplace_back();
+            auto it = prim.attributes.find("TEXCOORD_" + std::to_string(set));
+            if (it != prim.attributes.end() &&
+                !(gltf::read_floats(model_, it->second, 2, out.uvs.back(), why) &&
+                  out.uvs.back().size() == 2 * out.vertex_count))
+                out.uvs.back().clear();
         }
         return true;
     }
@@ -445,12 +454,28 @@ private:
             for (size_t i = 0; i < d.triangles * 3; ++i)
                 out.indices.push_back(d.indices[i] < d.vertex_count ? base + d.indices[i] : kInvalidIndex);
             out.material_ids.insert(out.material_ids.end(), d.triangles, slot);
+            append_corner_uvs(d, out);
             out.positions.insert(out.positions.end(), d.positions.begin(), d.positions.end());
             any_normals |= !d.normals.empty();
             prims.normals.push_back(std::move(d.normals));
         }
         if (!out.indices.empty() && any_normals) out.normals = corner_normals(out.positions, out.indices, prims);
         return out;
+    }
+
+    // The primitive's per-corner UVs, flipped to Blender's v (0 at the
+    // bottom of the image) as its importer does; (0, 0) where it has none.
+    static void append_corner_uvs(const PrimitiveData& d, DecodedMesh& out) {
+        out.uvs.resize(d.uvs.size());
+        for (size_t layer = 0; layer < d.uvs.size(); ++layer) {
+            const std::vector<float>& uv = d.uvs[layer];
+            for (size_t i = 0; i < d.triangles * 3; ++i) {
+                const uint32_t v = d.indices[i];
+                const bool has = !uv.empty() && v < d.vertex_count;
+                out.uvs[layer].push_back(has ? uv[2 * size_t(v)] : 0.0f);
+                out.uvs[layer].push_back(has ? 1.0f - uv[2 * size_t(v) + 1] : 0.0f);
+            }
+        }
     }
 
     void add_instance(const DecodedMesh& mesh, const Transform& world) {
@@ -465,6 +490,7 @@ private:
         input.material_ids = mesh.material_ids.data();
         input.material_slots = mesh.material_slots;
         input.normals = mesh.normals.empty() ? nullptr : mesh.normals.data();
+        for (const auto& uv : mesh.uvs) input.shading.uvs.push_back(uv.size() == mesh.indices.size() * 2 ? uv.data() : nullptr);
         scene_.add_mesh(input);
     }
 
@@ -480,6 +506,7 @@ private:
     float aspect_;
     std::vector<uint32_t> material_index_;  // glTF material -> scene material
     std::vector<bool> material_emissive_;
+    gltf::TextureImporter textures_;
     std::vector<PunctualLight> punctual_;
     std::vector<std::unique_ptr<DecodedMesh>> decoded_;  // per glTF mesh, filled on first use
     bool has_camera_ = false;
@@ -515,7 +542,7 @@ GltfLoadResult load_gltf(const std::string& path, Scene& scene, float aspect) {
     if (bytes.size() > std::numeric_limits<unsigned int>::max()) return fail("file is larger than 4 GB");
 
     tinygltf::TinyGLTF parser;
-    parser.SetImageLoader(skip_image, nullptr);
+    parser.SetImageLoader(gltf::keep_encoded_image, nullptr);
     tinygltf::Model model;
     std::string err, warn;
     bool parsed = false;
@@ -534,7 +561,7 @@ GltfLoadResult load_gltf(const std::string& path, Scene& scene, float aspect) {
     if (!parsed) return fail("malformed glTF: " + (err.empty() ? std::string("unknown error") : err));
 
     try {
-        Loader loader(model, scene, aspect);
+        Loader loader(model, scene, aspect, base_dir);
         if (!loader.load(result)) return fail(loader.error());
     } catch (const std::exception& e) {
         return fail(std::string("cannot load: ") + e.what());

@@ -2,8 +2,8 @@
 // change the TinyGLTF class's default members, so every translation unit
 // must see the same ones (tinygltf_impl.cpp compiles the implementation).
 //
-// Textures are ignored by the engine, so no image decoder is compiled in;
-// gltf.cpp installs an image loader that skips every image unread, so an
+// Images are decoded by OpenImageIO (gltf_textures.cpp), so no image decoder is compiled in;
+// gltf.cpp installs an image loader that keeps embedded bytes undecoded, so an
 // image that is missing or undecodable never makes a loadable scene fail.
 #pragma once
 

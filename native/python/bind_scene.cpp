@@ -16,6 +16,7 @@
 
 #include "accel/bvh.h"
 #include "render/renderer.h"
+#include "bind_shading.h"
 #include "bindings.h"
 
 namespace coherent::python {
@@ -215,7 +216,8 @@ std::vector<uint32_t> read_material_slots(const PyScene& self, const py::handle&
 size_t add_mesh(PyScene& self, const std::string& name, const py::handle& positions_obj,
                 const py::handle& indices_obj, const py::handle& matrix_obj, const py::handle& normals_obj,
                 const py::handle& material_ids_obj, const py::handle& material_slots_obj,
-                const py::handle& matrix_close_obj) {
+                const py::handle& matrix_close_obj, const py::handle& uvs_obj, const py::handle& tangents_obj,
+                const py::handle& generated_obj) {
     self.check_mutable("add_mesh");
     MeshArgs args;
     read_mesh_arrays(args, name, positions_obj, indices_obj, normals_obj, material_ids_obj);
@@ -238,6 +240,9 @@ size_t add_mesh(PyScene& self, const std::string& name, const py::handle& positi
         in.moves = true;
     }
     in.material_slots = read_material_slots(self, material_slots_obj);
+
+    MeshShadingArrays shading_arrays;
+    read_mesh_shading(self, in, uvs_obj, tangents_obj, generated_obj, shading_arrays);
 
     size_t added;
     {
@@ -296,9 +301,11 @@ size_t add_instances(PyScene& self, int64_t prototype, const py::handle& matrice
 }
 
 // A validated Material from add_material's / set_material's arguments.
-Material material_from_args(const std::string& name, const py::handle& closures_obj, const py::handle& weights_obj,
-                            const py::handle& emission_obj) {
+Material material_from_args(const PyScene& self, const std::string& name, const py::handle& closures_obj,
+                            const py::handle& weights_obj, const py::handle& emission_obj,
+                            const py::handle& program_obj) {
     Material m;
+    m.program = program_from_object(self, program_obj);
     m.name = name;
 
     std::vector<Closure> closures;
@@ -346,19 +353,19 @@ Material material_from_args(const std::string& name, const py::handle& closures_
 }
 
 uint32_t add_material(PyScene& self, const std::string& name, const py::handle& closures_obj,
-                      const py::handle& weights_obj, const py::handle& emission_obj) {
+                      const py::handle& weights_obj, const py::handle& emission_obj, const py::handle& program_obj) {
     self.check_mutable("add_material");
-    return self.scene.add_material(material_from_args(name, closures_obj, weights_obj, emission_obj));
+    return self.scene.add_material(material_from_args(self, name, closures_obj, weights_obj, emission_obj, program_obj));
 }
 
 // Replaces a material in place: triangles keep their material indices, so
 // the BVH stays valid (the features and emitter list are recomputed by
 // finalize()).
 void set_material(PyScene& self, size_t index, const std::string& name, const py::handle& closures_obj,
-                  const py::handle& weights_obj, const py::handle& emission_obj) {
+                  const py::handle& weights_obj, const py::handle& emission_obj, const py::handle& program_obj) {
     self.check_mutable("set_material");
     if (index >= self.scene.materials.size()) throw py::index_error("set_material: material index out of range");
-    self.scene.materials[index] = material_from_args(name, closures_obj, weights_obj, emission_obj);
+    self.scene.materials[index] = material_from_args(self, name, closures_obj, weights_obj, emission_obj, program_obj);
     self.finalized = false;
 }
 
@@ -644,7 +651,8 @@ default grey diffuse.
         .def(py::init<>())
         .def("add_mesh", &add_mesh, py::arg("name"), py::arg("positions"), py::arg("indices"), py::arg("matrix"),
              py::arg("normals") = py::none(), py::arg("material_ids") = py::none(),
-             py::arg("material_slots") = py::none(), py::arg("matrix_close") = py::none(),
+             py::arg("material_slots") = py::none(), py::arg("matrix_close") = py::none(), py::kw_only(),
+             py::arg("uvs") = py::none(), py::arg("tangents") = py::none(), py::arg("generated") = py::none(),
              R"doc(Adds a triangle mesh, transformed to world space by `matrix`.
 
 positions: float (N, 3) object-space vertices (any real dtype, converted to float32)
@@ -655,10 +663,15 @@ material_ids: optional integer (M,) per-triangle index into material_slots
 material_slots: optional list of scene material indices; empty -> material 0
 matrix_close: optional float (4, 4) transform at shutter close (object motion
   blur): the mesh moves linearly from `matrix` (shutter open) to it
+uvs: optional list, one per set_shading_inputs UV name, of float (M, 3, 2)
+  per-corner UVs (None where the mesh lacks that layer)
+tangents: optional float (M, 3, 4) per-corner object-space tangent and bitangent sign
+generated: optional (scale, offset) of Blender's texture space
 Bad triangles (non-finite, out-of-range index, zero area) are dropped and
 counted in `dropped`. Returns the number of triangles added.)doc")
         .def("add_material", &add_material, py::arg("name"), py::arg("closures") = py::none(),
              py::arg("weights") = py::none(), py::arg("emission") = py::make_tuple(0.0, 0.0, 0.0),
+             py::arg("program") = py::none(),
              R"doc(Adds a material; returns its index.
 
 closures: up to 4 dicts with keys base_color, metallic, roughness, specular,
@@ -666,9 +679,12 @@ transmission, ior, principled_diffuse (missing keys take Principled BSDF default
 except principled_diffuse: False is Lambert, True Cycles' Principled diffuse; [0,1] values
 are clamped). An empty list means no BSDF (black, e.g. pure emission).
 weights: one non-negative weight per closure (default: equal, summing to 1).
-emission: emitted radiance (colour x strength).)doc")
+emission: emitted radiance (colour x strength).
+program: optional shader program dict (code, constants, data, outputs; see
+native/shader/program.h) whose outputs override the constants per shading point.)doc")
         .def("set_material", &set_material, py::arg("index"), py::arg("name"), py::arg("closures") = py::none(),
              py::arg("weights") = py::none(), py::arg("emission") = py::make_tuple(0.0, 0.0, 0.0),
+             py::arg("program") = py::none(),
              "Replaces material `index` (arguments as add_material). Keeps the BVH: no triangle changes.")
         .def("clear_lights", [](PyScene& s) {
                 s.check_mutable("clear_lights");

@@ -4,6 +4,7 @@
 #include <thread>
 
 #include "bind_settings.h"
+#include "bind_shading.h"
 #include "bindings.h"
 #include "render/convergence.h"
 #include "render/stats.h"
@@ -61,6 +62,7 @@ PYBIND11_MODULE(_coherent, m) {
     m.attr("__version__") = "0.1.0";
 #endif
     bind_scene(m);
+    bind_shading(m);
     bind_settings(m);
     bind_render(m);
 

@@ -81,9 +81,16 @@ public:
     // whether wo is on the front (winding) side, which decides the glass eta.
     // with_glass = false drops transmission lobes (the kernel was specialised
     // for a scene without glass, where no such lobe can exist anyway).
-    Bsdf(const Material& mat, const Vec3f& n, const Vec3f& ng, const Vec3f& wo, bool front, bool with_glass) : n_(n), ng_(ng) {
+    // unperturbed: where a shader program replaced the interpolated normal
+    // (normal map), the interpolated one, for Cycles' bump shadowing term.
+    Bsdf(const Material& mat, const Vec3f& n, const Vec3f& ng, const Vec3f& wo, bool front, bool with_glass,
+         const Vec3f* unperturbed = nullptr) : n_(n), ng_(ng) {
         make_basis(n_, t_, b_);
         wo_ = to_local(wo);
+        if (unperturbed) {
+            bump_ = true;
+            n_base_ = to_local(*unperturbed);
+        }
         if (!(wo_.z > 0.0f)) return;  // degenerate frame: black
         float total = 0.0f;
         for (int c = 0; c < mat.closure_count && c < 4; ++c) {
@@ -249,13 +256,27 @@ private:
         return (1.0f - 0.5f * fl) * (1.0f - 0.5f * fv) + rr * (fl + fv + fl * fv * (rr - 1.0f));
     }
 
+    // Cycles' bump_shadowing_term: diffuse light on a normal-mapped point
+    // fades out where the light is below the unperturbed surface, without
+    // the hard terminator the perturbed normal alone would give.
+    float bump_shadowing(const Vec3f& wi) const {
+        const float denom = wi.z * n_base_.z;
+        const float g = denom != 0.0f ? dot(n_base_, wi) / denom : 0.0f;
+        if (g >= 1.0f) return 1.0f;
+        if (g < 0.0f) return 0.0f;
+        const float g2 = g * g;
+        return -g2 * g + g2 + g;
+    }
+
     Vec3f eval_lobe(const Lobe& l, const Vec3f& wi, bool reflect_side, float& pdf) const {
         pdf = 0.0f;
         switch (l.kind) {
-            case LobeKind::Diffuse:
+            case LobeKind::Diffuse: {
                 if (!reflect_side) return Vec3f(0.0f);
                 pdf = wi.z * kInvPi;
-                return l.weight * (wi.z * kInvPi * (l.retro < 0.0f ? 1.0f : principled_diffuse(l.retro, wi)));
+                const Vec3f f = l.weight * (wi.z * kInvPi * (l.retro < 0.0f ? 1.0f : principled_diffuse(l.retro, wi)));
+                return bump_ ? f * bump_shadowing(wi) : f;
+            }
             case LobeKind::Reflection: {
                 if (!reflect_side) return Vec3f(0.0f);
                 const Vec3f m = normalize(wo_ + wi);
@@ -299,6 +320,8 @@ private:
 
     Vec3f n_, t_, b_, ng_;
     Vec3f wo_;
+    Vec3f n_base_{0.0f, 0.0f, 1.0f};  // the unperturbed normal in the local frame, when bump_
+    bool bump_ = false;
     Lobe lobes_[kMaxLobes];
     int count_ = 0;
     bool has_non_delta_ = false;

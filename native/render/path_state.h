@@ -28,6 +28,7 @@
 
 #include <cmath>
 #include <limits>
+#include <optional>
 
 #include "../accel/bvh.h"
 #include "../accel/instance_bvh.h"
@@ -35,6 +36,7 @@
 #include "../core/inline.h"
 #include "../sample/image_sampler.h"
 #include "../scene/scene.h"
+#include "../shader/eval.h"
 #include "bsdf.h"
 #include "camera_rays.h"
 #include "instance_shading.h"
@@ -269,6 +271,26 @@ COHERENT_ALWAYS_INLINE SurfacePoint surface_point(const Scene& scene, const Path
     return sp;
 }
 
+// The material at sp: its constants, or for a node graph with non-constant
+// inputs what its shader program computes there (built in `scratch`; a
+// normal map also replaces sp.n). Constant materials take the first return.
+COHERENT_ALWAYS_INLINE const Material& material_at(const Scene& scene, const Hit& hit, SurfacePoint& sp,
+                                                    std::optional<Material>& scratch) {
+    const Material& base = scene.materials[sp.material];
+    if (!base.program) return base;
+    ShadingGeometry g;
+    g.tri = sp.tri;
+    g.u = hit.u;
+    g.v = hit.v;
+    g.p = sp.p;
+    g.n = sp.n;
+    g.ng = sp.ng_f;
+    g.wo = sp.wo;
+    g.front = sp.front;
+    evaluate_material(scene, base, g, scratch.emplace(), sp.n);
+    return *scratch;
+}
+
 // Analytic lights are invisible to camera rays (measured in Cycles) and
 // transparent: every one in front of the surface (or of nothing) adds its emission.
 COHERENT_ALWAYS_INLINE void add_lights_passed(const PathContext& ctx, PathState& s, bool found, const Hit& hit) {
@@ -434,7 +456,7 @@ inline void shade_hit(const PathContext& ctx, const PathSampler& ps, PathState& 
         shade_miss<kLights>(ctx, s);
         return;
     }
-    const SurfacePoint sp = surface_point(scene, s, hit);
+    SurfacePoint sp = surface_point(scene, s, hit);
     if (s.bounce == 0) {
         s.out.depth = dot(sp.p - scene.camera.position, scene.camera.forward);
         s.out.normal = sp.n;
@@ -444,11 +466,14 @@ inline void shade_hit(const PathContext& ctx, const PathSampler& ps, PathState& 
         return;
     }
 
-    const Material& mat = scene.materials[sp.material];
+    std::optional<Material> scratch;
+    const Vec3f interpolated_n = sp.n;
+    const Material& mat = material_at(scene, hit, sp, scratch);
     if (mat.is_emissive()) add_emission<kLights>(ctx, s, mat, sp);
     if (s.last_ray) return;
 
-    const Bsdf bsdf(mat, sp.n, sp.ng_f, sp.wo, sp.front, kGlass);
+    const bool perturbed = sp.n.x != interpolated_n.x || sp.n.y != interpolated_n.y || sp.n.z != interpolated_n.z;
+    const Bsdf bsdf(mat, sp.n, sp.ng_f, sp.wo, sp.front, kGlass, perturbed ? &interpolated_n : nullptr);
     if (bsdf.empty()) return;
     if constexpr (kLights) queue_shadow_ray(ctx, ps, s, bsdf, sp);
     if (!survive_roulette(ctx, ps, s)) return;

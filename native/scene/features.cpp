@@ -4,6 +4,7 @@
 #include "features.h"
 
 #include "scene.h"
+#include "../shader/program.h"
 
 namespace coherent {
 
@@ -50,6 +51,12 @@ SceneFeatures compute_features(const Scene& scene) {
         if (!used[i]) continue;
         const Material& mat = scene.materials[i];
         if (mat.is_emissive()) f.emissive_meshes = true;
+        // A shader program may turn any lobe on at some points.
+        if (mat.program) {
+            f.diffuse = f.glossy = f.specular = true;
+            for (const ShaderOutput& o : mat.program->outputs)
+                if (o.field == ShaderField::Transmission) f.glass = true;
+        }
         for (int c = 0; c < mat.closure_count && c < 4; ++c) {
             if (!(mat.weights[c] > 0.0f)) continue;
             const Closure& cl = mat.closures[c];

@@ -9,11 +9,14 @@
 #include <algorithm>
 #include <array>
 #include <cstdint>
+#include <memory>
 #include <string>
 
 #include "../core/vec.h"
 
 namespace coherent {
+
+struct ShaderProgram;  // shader/program.h
 
 // Blender's Principled BSDF restricted to constant inputs.
 // Lobes: Lambert diffuse, GGX dielectric specular (F0 from `specular`),
@@ -64,6 +67,10 @@ struct Material {
     int closure_count = 1;
     Vec3f emission{0.0f, 0.0f, 0.0f};  // emitted radiance (colour x strength), W/(sr m^2) as in Cycles
     // Blender's alpha is not supported yet; every surface is opaque.
+    // Node graphs with non-constant inputs: a program whose outputs override
+    // the constants above per shading point (shader/eval.h). Null for
+    // constant materials, which then cost exactly what they did before.
+    std::shared_ptr<const ShaderProgram> program;
 
     bool is_emissive() const { return emission.x > 0.0f || emission.y > 0.0f || emission.z > 0.0f; }
 };

@@ -240,8 +240,10 @@ size_t Scene::add_mesh(const MeshInput& mesh) {
         if (track_motion) append_motion_corners(*this, mesh, world, t, idx, corner, real_normals, normal_xf_close, n);
         has_normals.push_back(real_normals ? 1 : 0);
         material_of.push_back(material);
+        append_shading_corners(shading, mesh, t, corner, n);
         ++added;
     }
+    if (added > 0) append_object_shading(shading, mesh);
     return record_mesh(*this, name, mesh.triangle_count, added, drops);
 }
 

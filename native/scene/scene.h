@@ -15,6 +15,7 @@
 #include "instance.h"
 #include "light.h"
 #include "material.h"
+#include "shading_attributes.h"
 #include "world.h"
 
 namespace coherent {
@@ -52,6 +53,7 @@ struct MeshInput {
     const float* positions_close = nullptr;
     bool moves = false;  // true when positions_close or object_to_world_close applies
     Transform object_to_world_close;
+    MeshShadingInput shading;  // UVs, tangents, texture space: read only where Scene::shading wants them
 };
 
 struct Scene {
@@ -80,6 +82,8 @@ struct Scene {
     Vec3f world_color{0.0f, 0.0f, 0.0f};  // constant environment radiance, or world_map's strength
     EnvironmentMap world_map;              // when not empty, world radiance(d) = world_color x world_map(d)
     Camera camera;
+    // What shader programs read (UVs, tangents, object spaces) and their images.
+    SceneShading shading;
 
     DropReport dropped;
 

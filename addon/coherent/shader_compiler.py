@@ -1,0 +1,532 @@
+# SPDX-License-Identifier: Apache-2.0
+"""Shader node graphs to native shader programs (native/shader/program.h).
+
+materials.py walks the shader (closure) nodes of a material; wherever a
+closure input is linked to a texture or maths node, it asks this module for
+the input's value. The compiler follows the link backwards through reroutes,
+muted nodes and (nested) node groups, emits one instruction per node into a
+linear program over float registers, and returns either a constant (when the
+whole subgraph is constant: it is folded with the native formulas, so a
+material without textures stays a constant material) or a register.
+
+The module only reads node attributes (bl_idname, inputs, outputs, links,
+properties), so its tests can drive it with plain Python stand-ins.
+
+Values: a Python float, a 3-tuple of floats (constants), or a `Reg`.
+"""
+
+from __future__ import annotations
+
+# Instruction opcodes: ShaderOp in native/shader/program.h, in order.
+OPS = ("MATH", "VECTOR_MATH", "MIX_COLOR", "MIX_FLOAT", "MIX_VECTOR", "MAPPING", "COLOR_RAMP", "INVERT",
+       "RGB_TO_BW", "COMBINE", "CHECKER", "IMAGE_TEXTURE", "TEX_COORD", "NORMAL_MAP", "CLAMP")
+OP = {name: i for i, name in enumerate(OPS)}
+# Closure fields a program drives: ShaderField in program.h, in order.
+FIELDS = ("base_color", "metallic", "roughness", "specular", "transmission", "ior", "weight", "emission", "normal")
+FIELD = {name: i for i, name in enumerate(FIELDS)}
+VEC3_FIELDS = {"base_color", "emission", "normal"}
+
+# Blender enum identifiers in the order of their native enums (node_math.h, node_color.h).
+MATH_OPS = ("ADD", "SUBTRACT", "MULTIPLY", "DIVIDE", "SINE", "COSINE", "TANGENT", "ARCSINE", "ARCCOSINE",
+            "ARCTANGENT", "POWER", "LOGARITHM", "MINIMUM", "MAXIMUM", "ROUND", "LESS_THAN", "GREATER_THAN",
+            "MODULO", "ABSOLUTE", "ARCTAN2", "FLOOR", "CEIL", "FRACT", "SQRT", "INVERSE_SQRT", "SIGN", "EXPONENT",
+            "RADIANS", "DEGREES", "SINH", "COSH", "TANH", "TRUNC", "SNAP", "WRAP", "COMPARE", "MULTIPLY_ADD",
+            "PINGPONG", "SMOOTH_MIN", "SMOOTH_MAX")
+VECTOR_MATH_OPS = ("ADD", "SUBTRACT", "MULTIPLY", "DIVIDE", "CROSS_PRODUCT", "PROJECT", "REFLECT", "DOT_PRODUCT",
+                   "DISTANCE", "LENGTH", "SCALE", "NORMALIZE", "SNAP", "FLOOR", "CEIL", "MODULO", "FRACTION",
+                   "ABSOLUTE", "MINIMUM", "MAXIMUM", "WRAP", "SINE", "COSINE", "TANGENT", "REFRACT", "FACEFORWARD",
+                   "MULTIPLY_ADD")
+BLEND_TYPES = ("MIX", "ADD", "MULTIPLY", "SUBTRACT", "SCREEN", "DIVIDE", "DIFFERENCE", "DARKEN", "LIGHTEN",
+               "OVERLAY", "DODGE", "BURN", "HUE", "SATURATION", "VALUE", "COLOR", "SOFT_LIGHT", "LINEAR_LIGHT")
+MAPPING_TYPES = ("POINT", "TEXTURE", "VECTOR", "NORMAL")
+TEX_COORDS = {"UV": 0, "Generated": 1, "Object": 2, "Normal": 3}
+NORMAL_MAP_SPACES = {"TANGENT": 0, "OBJECT": 1, "WORLD": 2}
+IMAGE_INTERPOLATION = {"Linear": 0, "Closest": 1, "Cubic": 2, "Smart": 2}
+IMAGE_EXTENSION = {"REPEAT": 0, "EXTEND": 1, "CLIP": 2}
+IMAGE_SRGB, IMAGE_UNASSOCIATE, IMAGE_PREMULTIPLY, IMAGE_IGNORE_ALPHA, IMAGE_BYTES = 0x10, 0x20, 0x40, 0x80, 0x100
+CLAMP_BIT = 0x100          # Math clamp / Mix clamp factor
+CLAMP_RESULT_BIT = 0x200   # Mix (colour) clamp result
+NON_UNIFORM_BIT = 0x400    # Mix (vector) per-component factor
+RAMP_TABLE_SIZE = 256
+MAX_GROUP_DEPTH = 16
+# Ops that read geometry or images: never folded.
+_VARYING_OPS = {OP["TEX_COORD"], OP["IMAGE_TEXTURE"], OP["NORMAL_MAP"]}
+# Cycles' luma of Blender 3.4's scene linear space (RGB to BW, colour -> float conversion).
+_LUMA = (0.212671, 0.71516, 0.072169)
+
+
+class Reg:
+    """A register holding a float (width 1) or a vec3 (width 3)."""
+
+    __slots__ = ("index", "width")
+
+    def __init__(self, index, width):
+        self.index = index
+        self.width = width
+
+    def component(self, k):
+        return Reg(self.index + k, 1)
+
+    def __repr__(self):
+        return f"Reg({self.index}, {self.width})"
+
+
+def is_constant(value):
+    return not isinstance(value, Reg)
+
+
+def _width_of(socket_type):
+    return 3 if socket_type in ("RGBA", "VECTOR") else 1
+
+
+class ProgramBuilder:
+    """Registers, instructions and outputs of one program; folds constant instructions.
+
+    `fold(program_dict) -> registers` runs instructions natively
+    (_coherent.fold_shader_constants); without it nothing is folded.
+    """
+
+    def __init__(self, fold=None):
+        self.constants = []
+        self.code = []
+        self.data = []
+        self.outputs = []
+        self.uses = set()  # "uv", "tangents", "objects"
+        self._fold = fold
+        self._const_regs = {}
+        self._const_indices = set()
+
+    # -- registers ------------------------------------------------------------
+
+    def register(self, value, width):
+        """A register holding `value` converted to `width` (constants are shared)."""
+        if isinstance(value, Reg):
+            return self.convert(value, width)
+        value = convert_constant(value, width)
+        key = (width, value)
+        reg = self._const_regs.get(key)
+        if reg is None:
+            reg = Reg(len(self.constants), width)
+            self.constants.extend([value] if width == 1 else list(value))
+            self._const_regs[key] = reg
+            self._const_indices.add(reg.index)
+        return reg
+
+    def convert(self, reg, width, as_color=True):
+        if reg.width == width:
+            return reg
+        if width == 3:  # float -> (f, f, f)
+            return self.emit("COMBINE", 0, [(reg, 1), (reg, 1), (reg, 1)], (3,))[0]
+        if as_color:  # colour -> luma, as Cycles converts
+            return self.emit("RGB_TO_BW", 0, [(reg, 3)], (1,))[0]
+        return self.emit("VECTOR_MATH", VECTOR_MATH_OPS.index("DOT_PRODUCT"),
+                         [(reg, 3), ((1 / 3, 1 / 3, 1 / 3), 3), (0.0, 3), (0.0, 1)], (3, 1))[1]
+
+    def _new(self, width):
+        reg = Reg(len(self.constants), width)
+        self.constants.extend([0.0] * width)
+        return reg
+
+    # -- instructions -----------------------------------------------------------
+
+    def emit(self, op, mode, inputs, out_widths, data=0):
+        """Appends an instruction; returns its outputs (constants where it folded)."""
+        ins = [self.register(v, w) if v is not None else None for v, w in inputs]
+        outs = [self._new(w) for w in out_widths]
+        row = [OP[op], mode, -1, -1, -1, -1, -1, -1, data]
+        for k, reg in enumerate(outs):
+            row[2 + k] = reg.index
+        for k, reg in enumerate(ins):
+            row[4 + k] = reg.index if reg is not None else -1
+        self.code.append(row)
+        if self._fold is not None and OP[op] not in _VARYING_OPS and all(
+                i is None or self._is_constant_reg(i) for i in ins):
+            return self._fold_last(outs)
+        return outs
+
+    def _is_constant_reg(self, reg):
+        return reg.index in self._const_indices
+
+    def _fold_last(self, outs):
+        row = self.code.pop()
+        registers = self._fold({"code": [row], "constants": self.constants, "data": self.data})
+        values = []
+        for reg in outs:
+            v = registers[reg.index:reg.index + reg.width]
+            values.append(float(v[0]) if reg.width == 1 else tuple(float(x) for x in v))
+        return values
+
+    def output(self, field, closure, value):
+        self.outputs.append((FIELD[field], closure, self.register(value, 3 if field in VEC3_FIELDS else 1).index))
+
+    def program(self):
+        """The dict Scene.add_material(program=...) takes; None when nothing varies."""
+        if not self.outputs:
+            return None
+        return {"code": self.code, "constants": self.constants, "data": self.data, "outputs": self.outputs}
+
+
+def convert_constant(value, width):
+    if width == 1:
+        if isinstance(value, tuple):
+            return float(sum(c * w for c, w in zip(value, _LUMA)))
+        return float(value)
+    if isinstance(value, tuple):
+        return tuple(float(c) for c in value[:3])
+    return (float(value),) * 3
+
+
+def socket_default(socket):
+    """A socket's own value as a compiler constant."""
+    value = getattr(socket, "default_value", 0.0)
+    if _width_of(socket.type) == 3:
+        return tuple(float(value[k]) for k in range(3))
+    try:
+        return float(value)
+    except TypeError:
+        return 0.0
+
+
+# -- the node graph ---------------------------------------------------------------
+
+
+class GraphCompiler:
+    """Compiles what feeds input sockets of one material's node tree.
+
+    warn(text): one warning line (the caller prefixes the material name).
+    image_index(image, node) -> scene image index: registers an image.
+    uv_index(name) -> UV layer index ("" = the active render UV map).
+    """
+
+    def __init__(self, builder, warn, image_index, uv_index):
+        self.b = builder
+        self.warn = warn
+        self.image_index = image_index
+        self.uv_index = uv_index
+        self._cache = {}          # (group path, node pointer, output name) -> value
+        self._warned_types = set()
+        self._group_path = ()     # the group nodes we are inside, outermost first
+        self.consumer = ""        # which closure input is being compiled, for warnings
+
+    # -- sockets and links ------------------------------------------------------------
+
+    def input_value(self, socket, width=None):
+        """The value flowing into an input socket (its default when unlinked)."""
+        width = width or _width_of(socket.type)
+        linked = self._follow(socket)
+        if linked is None:
+            return convert_constant(socket_default(socket), width)
+        node, out = linked
+        value = self.output_value(node, out)
+        if isinstance(value, Reg):
+            return self.b.convert(value, width, as_color=out.type == "RGBA")
+        return convert_constant(value, width)
+
+    def _follow(self, socket):
+        """(node, output socket) feeding `socket` across reroutes, muted nodes and group boundaries."""
+        for _ in range(256):
+            link = next((l for l in socket.links if not l.is_muted and l.is_valid), None) if socket.is_linked else None
+            if link is None:
+                return None
+            node = link.from_node
+            if node.bl_idname == "NodeReroute":
+                socket = node.inputs[0]
+            elif node.mute:
+                socket = next((il.from_socket for il in node.internal_links if il.to_socket == link.from_socket), None)
+                if socket is None:
+                    return None
+            elif node.bl_idname == "NodeGroupInput":
+                if not self._group_path:
+                    return None
+                group = self._group_path[-1]
+                outer = _by_identifier(group.inputs, link.from_socket.identifier)
+                if outer is None:
+                    return None
+                # The group node's input lives one level up.
+                self._group_path = self._group_path[:-1]
+                try:
+                    return self._resolved_outside(outer, group)
+                finally:
+                    self._group_path = self._group_path + (group,)
+            else:
+                return node, link.from_socket
+        return None
+
+    def _resolved_outside(self, socket, group):
+        # Evaluate the outer socket in the outer context now, and hand back a
+        # constant pseudo node so the caller's context stays unchanged.
+        return _Resolved(self.input_value(socket)), _RESOLVED_OUTPUT
+
+    # -- nodes ----------------------------------------------------------------------------
+
+    def output_value(self, node, out):
+        if isinstance(node, _Resolved):
+            return node.value
+        key = (tuple(g.as_pointer() for g in self._group_path), node.as_pointer(), out.identifier)
+        if key not in self._cache:
+            self._cache[key] = self._compile_node(node, out)
+        return self._cache[key]
+
+    def _compile_node(self, node, out):
+        handler = _HANDLERS.get(node.bl_idname)
+        if handler is None:
+            if node.bl_idname not in self._warned_types:
+                self._warned_types.add(node.bl_idname)
+                feeding = f" (feeding {self.consumer})" if self.consumer else ""
+                self.warn(f"node {node.bl_idname} ('{node.name}'){feeding} is not supported: "
+                          f"using its output's default value")
+            return socket_default(out) if hasattr(out, "default_value") else 0.0
+        return handler(self, node, out)
+
+    def group(self, node, out):
+        tree = node.node_tree
+        if tree is None:
+            return socket_default(out)
+        if len(self._group_path) >= MAX_GROUP_DEPTH:
+            self.warn(f"node group '{node.name}' nested deeper than {MAX_GROUP_DEPTH}: using the default value")
+            return socket_default(out)
+        if any(g.node_tree == tree for g in self._group_path):
+            self.warn(f"node group '{node.name}' ({tree.name}) contains itself: using the default value")
+            return socket_default(out)
+        output = next((n for n in tree.nodes if n.bl_idname == "NodeGroupOutput" and n.is_active_output), None) or \
+            next((n for n in tree.nodes if n.bl_idname == "NodeGroupOutput"), None)
+        inner = _by_identifier(output.inputs, out.identifier) if output is not None else None
+        if inner is None:
+            return socket_default(out)
+        self._group_path = self._group_path + (node,)
+        try:
+            return self.input_value(inner, _width_of(out.type))
+        finally:
+            self._group_path = self._group_path[:-1]
+
+
+def _by_identifier(sockets, identifier):
+    return next((s for s in sockets if s.identifier == identifier), None)
+
+
+class _Resolved:
+    """A value computed outside the current node group, standing in for a node."""
+
+    def __init__(self, value):
+        self.value = value
+
+
+class _ResolvedOutput:
+    type = "RGBA"
+    identifier = "resolved"
+
+
+_RESOLVED_OUTPUT = _ResolvedOutput()
+
+
+# -- node handlers: (compiler, node, output socket) -> value --------------------------
+
+
+def _inp(gc, node, key, width=None):
+    return gc.input_value(node.inputs[key], width)
+
+
+def _value_node(gc, node, out):
+    return float(node.outputs[0].default_value)
+
+
+def _rgb_node(gc, node, out):
+    return tuple(float(c) for c in node.outputs[0].default_value[:3])
+
+
+def _math(gc, node, out):
+    mode = MATH_OPS.index(node.operation) | (CLAMP_BIT if node.use_clamp else 0)
+    ins = [(_inp(gc, node, k, 1), 1) for k in range(3)]
+    return gc.b.emit("MATH", mode, ins, (1,))[0]
+
+
+def _vector_math(gc, node, out):
+    vec, value = gc.b.emit("VECTOR_MATH", VECTOR_MATH_OPS.index(node.operation),
+                           [(_inp(gc, node, 0, 3), 3), (_inp(gc, node, 1, 3), 3), (_inp(gc, node, 2, 3), 3),
+                            (_inp(gc, node, "Scale", 1), 1)], (3, 1))
+    return value if out.identifier == "Value" else vec
+
+
+def _mix_rgb(gc, node, out):
+    # Legacy MixRGB: Cycles uses the factor as is and clamps only the result.
+    mode = BLEND_TYPES.index(node.blend_type) | (CLAMP_RESULT_BIT if node.use_clamp else 0)
+    return gc.b.emit("MIX_COLOR", mode, [(_inp(gc, node, "Fac", 1), 1), (_inp(gc, node, "Color1", 3), 3),
+                                         (_inp(gc, node, "Color2", 3), 3)], (3,))[0]
+
+
+def _mix(gc, node, out):
+    """Blender 3.4's Mix node: inputs 0/1 factor (float/vector), 2-3 floats, 4-5 vectors, 6-7 colours."""
+    clamp_factor = CLAMP_BIT if node.clamp_factor else 0
+    kind = node.data_type
+    if kind == "FLOAT":
+        return gc.b.emit("MIX_FLOAT", clamp_factor, [(_inp(gc, node, 0, 1), 1), (_inp(gc, node, 2, 1), 1),
+                                                     (_inp(gc, node, 3, 1), 1)], (1,))[0]
+    if kind == "VECTOR":
+        non_uniform = node.factor_mode == "NON_UNIFORM"
+        fac = (_inp(gc, node, 1, 3), 3) if non_uniform else (_inp(gc, node, 0, 1), 1)
+        mode = clamp_factor | (NON_UNIFORM_BIT if non_uniform else 0)
+        return gc.b.emit("MIX_VECTOR", mode, [fac, (_inp(gc, node, 4, 3), 3), (_inp(gc, node, 5, 3), 3)], (3,))[0]
+    mode = BLEND_TYPES.index(node.blend_type) | clamp_factor | (CLAMP_RESULT_BIT if node.clamp_result else 0)
+    return gc.b.emit("MIX_COLOR", mode, [(_inp(gc, node, 0, 1), 1), (_inp(gc, node, 6, 3), 3),
+                                         (_inp(gc, node, 7, 3), 3)], (3,))[0]
+
+
+def _mapping(gc, node, out):
+    kind = MAPPING_TYPES.index(node.vector_type)
+    ins = [(_inp(gc, node, "Vector", 3), 3)]
+    for name in ("Location", "Rotation", "Scale"):
+        socket = node.inputs.get(name) if hasattr(node.inputs, "get") else None
+        ins.append((gc.input_value(socket, 3) if socket is not None else (0.0, 0.0, 0.0), 3))
+    return gc.b.emit("MAPPING", kind, ins, (3,))[0]
+
+
+def _color_ramp(gc, node, out):
+    ramp = node.color_ramp
+    offset = len(gc.b.data)
+    for i in range(RAMP_TABLE_SIZE):
+        gc.b.data.extend(float(c) for c in ramp.evaluate(i / (RAMP_TABLE_SIZE - 1)))
+    interpolate = 1 if ramp.interpolation != "CONSTANT" else 0
+    color, alpha = gc.b.emit("COLOR_RAMP", interpolate, [(_inp(gc, node, "Fac", 1), 1)], (3, 1), data=offset)
+    return alpha if out.identifier == "Alpha" else color
+
+
+def _invert(gc, node, out):
+    return gc.b.emit("INVERT", 0, [(_inp(gc, node, "Fac", 1), 1), (_inp(gc, node, "Color", 3), 3)], (3,))[0]
+
+
+def _rgb_to_bw(gc, node, out):
+    return gc.b.emit("RGB_TO_BW", 0, [(_inp(gc, node, 0, 3), 3)], (1,))[0]
+
+
+def _separate(gc, node, out):
+    if getattr(node, "mode", "RGB") != "RGB":
+        gc.warn(f"Separate Color mode {node.mode} ('{node.name}') is not supported: using RGB")
+    value = _inp(gc, node, 0, 3)
+    k = [o.identifier for o in node.outputs].index(out.identifier)
+    return value.component(k) if isinstance(value, Reg) else value[k]
+
+
+def _combine(gc, node, out):
+    if getattr(node, "mode", "RGB") != "RGB":
+        gc.warn(f"Combine Color mode {node.mode} ('{node.name}') is not supported: using RGB")
+    parts = [_inp(gc, node, k, 1) for k in range(3)]
+    if all(is_constant(p) for p in parts):
+        return tuple(parts)
+    return gc.b.emit("COMBINE", 0, [(p, 1) for p in parts], (3,))[0]
+
+
+def _clamp(gc, node, out):
+    mode = 1 if node.clamp_type == "RANGE" else 0
+    return gc.b.emit("CLAMP", mode, [(_inp(gc, node, k, 1), 1) for k in range(3)], (1,))[0]
+
+
+def _tex_coord(gc, node, out):
+    kind = TEX_COORDS.get(out.identifier)
+    if kind is None or (out.identifier == "Object" and getattr(node, "object", None) is not None):
+        gc.warn(f"Texture Coordinate output '{out.identifier}' ('{node.name}') is not supported: using UV")
+        kind = 0
+    return _coordinate(gc, kind, "")
+
+
+def _coordinate(gc, kind, uv_name):
+    data = 0
+    if kind == TEX_COORDS["UV"]:
+        data = gc.uv_index(uv_name)
+        gc.b.uses.add("uv")
+    else:
+        gc.b.uses.add("objects")
+    return gc.b.emit("TEX_COORD", kind, [], (3,), data=data)[0]
+
+
+def _uv_map(gc, node, out):
+    return _coordinate(gc, TEX_COORDS["UV"], node.uv_map)
+
+
+def _texture_vector(gc, node, default_kind):
+    """A texture node's Vector input; unlinked, Cycles uses UVs (images) or generated coordinates."""
+    socket = node.inputs["Vector"]
+    if gc._follow(socket) is None:
+        return _coordinate(gc, default_kind, "")
+    return gc.input_value(socket, 3)
+
+
+def _checker(gc, node, out):
+    vector = _texture_vector(gc, node, TEX_COORDS["Generated"])
+    color, fac = gc.b.emit("CHECKER", 0, [(vector, 3), (_inp(gc, node, "Color1", 3), 3),
+                                          (_inp(gc, node, "Color2", 3), 3), (_inp(gc, node, "Scale", 1), 1)], (3, 1))
+    return fac if out.identifier == "Fac" else color
+
+
+def image_flags(node, image, alpha_linked):
+    """ImageTexture mode bits for an Image Texture node (Cycles' image flags)."""
+    flags = IMAGE_INTERPOLATION.get(node.interpolation, 0)
+    flags |= IMAGE_EXTENSION.get(node.extension, 0) << 2
+    colorspace = image.colorspace_settings.name if image is not None else "sRGB"
+    is_data = colorspace in ("Non-Color", "Raw", "Linear", "Linear Rec.709", "XYZ", "Filmic Log")
+    if colorspace == "sRGB" and not getattr(image, "is_float", False):
+        flags |= IMAGE_SRGB
+    alpha_mode = getattr(image, "alpha_mode", "STRAIGHT")
+    if alpha_mode == "NONE":
+        flags |= IMAGE_IGNORE_ALPHA
+    elif not is_data and alpha_mode == "STRAIGHT" and not alpha_linked:
+        flags |= IMAGE_PREMULTIPLY | (0 if getattr(image, "is_float", False) else IMAGE_BYTES)
+    elif not is_data and alpha_mode == "PREMUL" and alpha_linked:
+        flags |= IMAGE_UNASSOCIATE
+    return flags
+
+
+def _image(gc, node, out):
+    image = node.image
+    if image is None:
+        gc.warn(f"Image Texture '{node.name}' has no image: rendered magenta")
+        return (1.0, 0.0, 1.0) if out.identifier == "Color" else 1.0
+    if getattr(node, "projection", "FLAT") != "FLAT":
+        gc.warn(f"Image Texture '{node.name}': projection {node.projection} is not supported, using FLAT")
+    index = gc.image_index(image, node)
+    vector = _texture_vector(gc, node, TEX_COORDS["UV"])
+    alpha_linked = node.outputs["Alpha"].is_linked
+    color, alpha = gc.b.emit("IMAGE_TEXTURE", image_flags(node, image, alpha_linked), [(vector, 3)], (3, 1),
+                             data=index)
+    return alpha if out.identifier == "Alpha" else color
+
+
+def _normal_map(gc, node, out):
+    space = NORMAL_MAP_SPACES.get(node.space)
+    if space is None:
+        gc.warn(f"Normal Map space {node.space} ('{node.name}') is not supported: using tangent space")
+        space = 0
+    gc.b.uses.add("tangents" if space == 0 else "objects")
+    data = gc.uv_index(node.uv_map) if space == 0 else 0
+    return gc.b.emit("NORMAL_MAP", space, [(_inp(gc, node, "Strength", 1), 1), (_inp(gc, node, "Color", 3), 3)],
+                     (3,), data=data)[0]
+
+
+def _group(gc, node, out):
+    return gc.group(node, out)
+
+
+_HANDLERS = {
+    "ShaderNodeValue": _value_node,
+    "ShaderNodeRGB": _rgb_node,
+    "ShaderNodeMath": _math,
+    "ShaderNodeVectorMath": _vector_math,
+    "ShaderNodeMixRGB": _mix_rgb,
+    "ShaderNodeMix": _mix,
+    "ShaderNodeMapping": _mapping,
+    "ShaderNodeValToRGB": _color_ramp,
+    "ShaderNodeInvert": _invert,
+    "ShaderNodeRGBToBW": _rgb_to_bw,
+    "ShaderNodeSeparateRGB": _separate,
+    "ShaderNodeSeparateXYZ": _separate,
+    "ShaderNodeSeparateColor": _separate,
+    "ShaderNodeCombineRGB": _combine,
+    "ShaderNodeCombineXYZ": _combine,
+    "ShaderNodeCombineColor": _combine,
+    "ShaderNodeClamp": _clamp,
+    "ShaderNodeTexCoord": _tex_coord,
+    "ShaderNodeUVMap": _uv_map,
+    "ShaderNodeTexChecker": _checker,
+    "ShaderNodeTexImage": _image,
+    "ShaderNodeNormalMap": _normal_map,
+    "ShaderNodeGroup": _group,
+}

@@ -1,0 +1,252 @@
+// The shader program interpreter. See program.h for the layout and the
+// invariants validate() establishes; this file relies on them and does no
+// bounds checks of its own.
+#include "eval.h"
+
+#include <algorithm>
+#include <cstring>
+
+#include "../scene/scene.h"
+#include "node_color.h"
+#include "node_math.h"
+#include "program.h"
+#include "textures.h"
+
+namespace coherent {
+
+using namespace shader;
+
+namespace {
+
+struct Registers {
+    float* r;
+    float f(uint16_t i) const { return r[i]; }
+    Vec3f v(uint16_t i) const { return {r[i], r[i + 1], r[i + 2]}; }
+    void set(uint16_t i, float x) const {
+        if (i != kNoRegister) r[i] = x;
+    }
+    void set(uint16_t i, const Vec3f& x) const {
+        if (i == kNoRegister) return;
+        r[i] = x.x;
+        r[i + 1] = x.y;
+        r[i + 2] = x.z;
+    }
+};
+
+template <class T>
+T corner_lerp(const T* c, float u, float v) {
+    return c[0] * (1.0f - u - v) + c[1] * u + c[2] * v;
+}
+
+Vec3f uv_coordinate(const Scene& scene, const ShadingGeometry& g, uint32_t layer) {
+    const SceneShading& sh = scene.shading;
+    if (layer >= sh.uvs.size() || sh.uvs[layer].size() < 3 * size_t(g.tri) + 3) return Vec3f(0.0f);
+    const Vec2f* c = &sh.uvs[layer][3 * size_t(g.tri)];
+    const float w = 1.0f - g.u - g.v;
+    return {c[0].x * w + c[1].x * g.u + c[2].x * g.v, c[0].y * w + c[1].y * g.u + c[2].y * g.v, 0.0f};
+}
+
+const ObjectShading* object_of(const Scene& scene, const ShadingGeometry& g) {
+    const auto& objects = scene.shading.objects;
+    const uint32_t o = g.tri < scene.object_of.size() ? scene.object_of[g.tri] : 0u;
+    return o < objects.size() ? &objects[o] : nullptr;
+}
+
+Vec3f texture_coordinate(const Scene& scene, const ShadingGeometry& g, TexCoordKind kind, uint32_t layer) {
+    const ObjectShading* object = object_of(scene, g);
+    switch (kind) {
+        case TexCoordKind::Uv: return uv_coordinate(scene, g, layer);
+        case TexCoordKind::Generated:
+            if (!object) return g.p;
+            return object->world_to_object.point(g.p) * object->generated_scale + object->generated_offset;
+        case TexCoordKind::Object: return object ? object->world_to_object.point(g.p) : g.p;
+        case TexCoordKind::Normal: return safe_normalize(object ? object->world_to_object.vector(g.n) : g.n);
+        case TexCoordKind::Position: return g.p;
+        case TexCoordKind::Incoming: return g.wo;
+    }
+    return Vec3f(0.0f);
+}
+
+// Cycles' svm_node_normal_map, with the object-space maths done in world space.
+Vec3f normal_map(const Scene& scene, const ShadingGeometry& g, NormalMapSpace space, float strength, Vec3f color) {
+    color = color * 2.0f - Vec3f(1.0f);
+    Vec3f n;
+    if (space == NormalMapSpace::Tangent) {
+        const SceneShading& sh = scene.shading;
+        if (sh.tangents.size() < 3 * size_t(g.tri) + 3) return g.n;
+        const Vec3f unflipped = g.front ? g.n : -g.n;
+        const Vec3f tangent = corner_lerp(&sh.tangents[3 * size_t(g.tri)], g.u, g.v);
+        const Vec3f bitangent = sh.tangent_signs[3 * size_t(g.tri)] * cross(unflipped, tangent);
+        n = safe_normalize(color.x * tangent + color.y * bitangent + color.z * unflipped);
+    } else if (space == NormalMapSpace::Object) {
+        const ObjectShading* object = object_of(scene, g);
+        const Transform* w = object ? &object->world_to_object : nullptr;
+        n = w ? Vec3f{w->m[0][0] * color.x + w->m[1][0] * color.y + w->m[2][0] * color.z,
+                      w->m[0][1] * color.x + w->m[1][1] * color.y + w->m[2][1] * color.z,
+                      w->m[0][2] * color.x + w->m[1][2] * color.y + w->m[2][2] * color.z}
+              : color;
+        n = safe_normalize(n);
+    } else {
+        n = safe_normalize(color);
+    }
+    if (!g.front) n = -n;
+    if (strength != 1.0f) n = safe_normalize(g.n + (n - g.n) * std::max(strength, 0.0f));
+    if (is_black(n) || !is_finite(n)) n = g.n;
+    return n;
+}
+
+void image_texture(const Scene& scene, const ShaderInstr& in, const Registers& r) {
+    const Vec3f co = r.v(in.in[0]);
+    TextureLookup how;
+    const int interp = in.mode & kImageInterpMask;
+    how.interp = interp == 1 ? TextureLookup::Interp::Closest
+                             : (interp >= 2 ? TextureLookup::Interp::Cubic : TextureLookup::Interp::Linear);
+    how.extension = TextureLookup::Extension((in.mode & kImageExtensionMask) >> kImageExtensionShift);
+    float c[4];
+    if (scene.shading.textures) scene.shading.textures->lookup(in.data, co.x, co.y, how, c);
+    else std::memcpy(c, kMissingTexture, sizeof(c));
+    if (in.mode & kImageIgnoreAlpha) c[3] = 1.0f;
+    const float alpha = c[3];
+    if ((in.mode & kImageUnassociate) && alpha != 1.0f && alpha != 0.0f)
+        for (int k = 0; k < 3; ++k) c[k] /= alpha;
+    if (in.mode & kImagePremultiply)
+        for (int k = 0; k < 3; ++k) {
+            c[k] *= alpha;
+            // Cycles: byte = byte * alpha_byte / 255 in integers (truncated); the
+            // epsilon keeps exact quotients from landing a float ulp below.
+            if (in.mode & kImageBytes) c[k] = std::floor(255.0f * std::clamp(c[k], 0.0f, 1.0f) + 1e-3f) / 255.0f;
+        }
+    if (in.mode & kImageSrgb)
+        for (int k = 0; k < 3; ++k) c[k] = srgb_to_linear(c[k]);
+    r.set(in.out[0], Vec3f{c[0], c[1], c[2]});
+    r.set(in.out[1], alpha);
+}
+
+void mix(const ShaderInstr& in, const Registers& r) {
+    const bool clamp_factor = (in.mode & kClampFactorBit) != 0;
+    if (in.op == ShaderOp::MixColor) {
+        float t = r.f(in.in[0]);
+        if (clamp_factor) t = saturatef(t);
+        Vec3f c = svm_mix(MixBlend(in.mode & 0xFF), t, r.v(in.in[1]), r.v(in.in[2]));
+        if (in.mode & kClampResultBit) c = saturate(c);
+        r.set(in.out[0], c);
+    } else if (in.op == ShaderOp::MixFloat) {
+        float t = r.f(in.in[0]);
+        if (clamp_factor) t = saturatef(t);
+        r.set(in.out[0], r.f(in.in[1]) * (1.0f - t) + r.f(in.in[2]) * t);
+    } else {
+        Vec3f t = (in.mode & kNonUniformBit) ? r.v(in.in[0]) : Vec3f(r.f(in.in[0]));
+        if (clamp_factor) t = saturate(t);
+        r.set(in.out[0], r.v(in.in[1]) * (Vec3f(1.0f) - t) + r.v(in.in[2]) * t);
+    }
+}
+
+void run(const Scene& scene, const ShaderProgram& prog, const ShadingGeometry& g, const Registers& r) {
+    for (const ShaderInstr& in : prog.code) {
+        switch (in.op) {
+            case ShaderOp::Math: {
+                float x = svm_math(MathOp(in.mode & 0xFF), r.f(in.in[0]), r.f(in.in[1]), r.f(in.in[2]));
+                if (in.mode & kClampBit) x = saturatef(x);
+                r.set(in.out[0], x);
+                break;
+            }
+            case ShaderOp::VectorMath: {
+                Vec3f vec;
+                float value;
+                svm_vector_math(VectorMathOp(in.mode), r.v(in.in[0]), r.v(in.in[1]), r.v(in.in[2]), r.f(in.in[3]),
+                                vec, value);
+                r.set(in.out[0], vec);
+                r.set(in.out[1], value);
+                break;
+            }
+            case ShaderOp::MixColor:
+            case ShaderOp::MixFloat:
+            case ShaderOp::MixVector: mix(in, r); break;
+            case ShaderOp::Mapping:
+                r.set(in.out[0], svm_mapping(in.mode, r.v(in.in[0]), r.v(in.in[1]), r.v(in.in[2]), r.v(in.in[3])));
+                break;
+            case ShaderOp::ColorRamp: {
+                Vec3f color;
+                float alpha;
+                ramp_lookup(prog.data.data() + in.data, kRampTableSize, r.f(in.in[0]), in.mode != 0, color, alpha);
+                r.set(in.out[0], color);
+                r.set(in.out[1], alpha);
+                break;
+            }
+            case ShaderOp::Invert: {
+                const Vec3f c = r.v(in.in[1]);
+                r.set(in.out[0], interp(c, Vec3f(1.0f) - c, r.f(in.in[0])));
+                break;
+            }
+            case ShaderOp::RgbToBw: r.set(in.out[0], rgb_to_gray(r.v(in.in[0]))); break;
+            case ShaderOp::Combine: r.set(in.out[0], Vec3f{r.f(in.in[0]), r.f(in.in[1]), r.f(in.in[2])}); break;
+            case ShaderOp::Checker: {
+                const float f = svm_checker(r.v(in.in[0]) * r.f(in.in[3]));
+                r.set(in.out[0], f == 1.0f ? r.v(in.in[1]) : r.v(in.in[2]));
+                r.set(in.out[1], f);
+                break;
+            }
+            case ShaderOp::ImageTexture: image_texture(scene, in, r); break;
+            case ShaderOp::TexCoord: r.set(in.out[0], texture_coordinate(scene, g, TexCoordKind(in.mode), in.data)); break;
+            case ShaderOp::NormalMap:
+                r.set(in.out[0], normal_map(scene, g, NormalMapSpace(in.mode), r.f(in.in[0]), r.v(in.in[1])));
+                break;
+            case ShaderOp::Clamp: r.set(in.out[0], svm_clamp(in.mode, r.f(in.in[0]), r.f(in.in[1]), r.f(in.in[2]))); break;
+            case ShaderOp::Count: break;
+        }
+    }
+}
+
+float finite_or(float x, float fallback) { return std::isfinite(x) ? x : fallback; }
+// Non-negative, with non-finite components 0 (each on its own, as a NaN in
+// one channel of a Cycles closure leaves the others).
+Vec3f non_negative(const Vec3f& v) {
+    return {std::max(finite_or(v.x, 0.0f), 0.0f), std::max(finite_or(v.y, 0.0f), 0.0f),
+            std::max(finite_or(v.z, 0.0f), 0.0f)};
+}
+
+void apply_output(const ShaderOutput& o, const Registers& r, const ShadingGeometry& g, Material& out, Vec3f& n) {
+    Closure& c = out.closures[o.closure];
+    auto unit = [&](float fallback) { return std::clamp(finite_or(r.f(o.reg), fallback), 0.0f, 1.0f); };
+    switch (o.field) {
+        case ShaderField::BaseColor: c.base_color = non_negative(r.v(o.reg)); break;
+        case ShaderField::Metallic: c.metallic = unit(0.0f); break;
+        case ShaderField::Roughness: c.roughness = unit(0.5f); break;
+        case ShaderField::Specular: c.specular = unit(0.5f); break;
+        case ShaderField::Transmission: c.transmission = unit(0.0f); break;
+        case ShaderField::Ior: c.ior = std::max(finite_or(r.f(o.reg), 1.45f), 1e-3f); break;
+        case ShaderField::Weight: out.weights[o.closure] = std::max(finite_or(r.f(o.reg), 0.0f), 0.0f); break;
+        case ShaderField::Emission: out.emission = non_negative(r.v(o.reg)); break;
+        case ShaderField::Normal: {
+            const Vec3f v = r.v(o.reg);
+            // A normal facing away from the viewer cannot shade it (as for
+            // interpolated normals, path_state.h).
+            if (is_finite(v) && dot(v, g.wo) > 1e-4f) n = normalize(v);
+            break;
+        }
+        case ShaderField::Count: break;
+    }
+}
+
+}  // namespace
+
+void run_constant_program(const ShaderProgram& program, float* registers) {
+    static const Scene empty;
+    run(empty, program, ShadingGeometry{}, Registers{registers});
+}
+
+void evaluate_material(const Scene& scene, const Material& mat, const ShadingGeometry& g, Material& out, Vec3f& n) {
+    const ShaderProgram& prog = *mat.program;
+    out.closures = mat.closures;
+    out.weights = mat.weights;
+    out.closure_count = mat.closure_count;
+    out.emission = mat.emission;
+    n = g.n;
+    float storage[kMaxShaderRegisters];
+    std::memcpy(storage, prog.constants.data(), prog.constants.size() * sizeof(float));
+    const Registers r{storage};
+    run(scene, prog, g, r);
+    for (const ShaderOutput& o : prog.outputs) apply_output(o, r, g, out, n);
+}
+
+}  // namespace coherent

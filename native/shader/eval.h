@@ -1,0 +1,33 @@
+// Running a material's shader program (program.h) at one shading point.
+#pragma once
+
+#include "../core/vec.h"
+#include "../scene/material.h"
+
+namespace coherent {
+
+struct Scene;
+struct ShaderProgram;
+
+// What a program may read at a shading point.
+struct ShadingGeometry {
+    uint32_t tri = 0;
+    float u = 0.0f, v = 0.0f;  // barycentrics of corners 1 and 2
+    Vec3f p{0.0f};             // world-space position
+    Vec3f n{0.0f};             // shading normal, on the side the ray came from
+    Vec3f ng{0.0f};            // geometric normal, on that side
+    Vec3f wo{0.0f};            // towards where the ray came from
+    bool front = true;         // the ray hit the side the winding normal points to
+};
+
+// The closures and emission of `mat` at g: its constants with the program's
+// outputs applied (mat.program must be set). `n` receives the shading normal:
+// g.n unless the program computes one (Normal Map).
+void evaluate_material(const Scene& scene, const Material& mat, const ShadingGeometry& g, Material& out, Vec3f& n);
+
+// Runs a program that reads no geometry or image over `registers` (its
+// constants, resized by the caller): how the compiler folds constant
+// subgraphs with exactly the formulas the renderer uses.
+void run_constant_program(const ShaderProgram& program, float* registers);
+
+}  // namespace coherent

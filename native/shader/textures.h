@@ -1,0 +1,64 @@
+// Image textures of a scene, looked up through OpenImageIO's TextureSystem
+// (its ImageCache tiles, caches and MIP-maps every image under one memory
+// limit). Images come from files, or, when they exist only inside the host
+// application (packed, generated or painted in Blender), as float pixel
+// buffers served to OIIO through an in-memory image format.
+//
+// An image that cannot be read (missing file, zero size, unreadable) keeps
+// its index but looks up Cycles' "missing texture" magenta; the reason is in
+// warnings(), so a bad file never stops a render.
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <mutex>
+#include <string>
+#include <vector>
+
+#include "../core/vec.h"
+
+namespace coherent {
+
+struct TextureLookup {
+    enum class Interp : uint8_t { Linear, Closest, Cubic };
+    enum class Extension : uint8_t { Repeat, Extend, Clip };
+    Interp interp = Interp::Linear;
+    Extension extension = Extension::Repeat;
+};
+
+// Cycles' colour of a missing image.
+constexpr float kMissingTexture[4] = {1.0f, 0.0f, 1.0f, 1.0f};
+
+class TextureStore {
+public:
+    explicit TextureStore(size_t cache_megabytes = 1024);
+    ~TextureStore();
+    TextureStore(const TextureStore&) = delete;
+    TextureStore& operator=(const TextureStore&) = delete;
+
+    // Registers an image file; returns its index. `label` names it in warnings.
+    uint32_t add_file(const std::string& path, const std::string& label);
+    // Registers pixels (height rows of width x channels floats, first row at
+    // the TOP, as image files store them); copied. Returns its index.
+    uint32_t add_pixels(const std::string& label, int width, int height, int channels, const float* pixels);
+
+    size_t size() const { return images_.size(); }
+    // RGBA at texture coordinates (u, v), v = 0 at the bottom row as in
+    // Blender's UV space. Thread-safe. Missing images give kMissingTexture.
+    void lookup(uint32_t image, float u, float v, TextureLookup how, float rgba[4]) const;
+
+    // Bytes held by the cache now (tiles of every image read so far).
+    size_t memory_bytes() const;
+    std::vector<std::string> warnings() const;
+
+private:
+    struct Image;
+    std::vector<std::unique_ptr<Image>> images_;
+    struct Oiio;
+    std::unique_ptr<Oiio> oiio_;
+    mutable std::mutex warn_mutex_;
+    mutable std::vector<std::string> warnings_;
+    void check_image(Image& image);
+};
+
+}  // namespace coherent

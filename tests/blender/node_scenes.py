@@ -1,0 +1,541 @@
+# Run by test_shader_nodes.py in a subprocess Blender:
+#
+#   blender -b --addons coherent --python node_scenes.py -- OUT_DIR CASE [CASE ...]
+#
+# Builds one scene per CASE: an orthographic camera sees exactly a 2x2 plane
+# whose material is an Emission shader (strength 1) driven by the node graph
+# under test, over a black world. Renders it at 1 sample per pixel with
+# Cycles and with COHERENT to OUT_DIR/<case>_<engine>.exr. An emitter seen by
+# the camera shows its emission exactly, so the two images must agree pixel
+# for pixel, up to float rounding (and filtering for image lookups).
+#
+# Every node under test reads coordinates that are constant over a pixel:
+# UV snapped to the pixel centre (Vector Math Snap + Add), so the random
+# position of the one sample inside its pixel cannot change the value.
+
+import os
+import sys
+
+import bpy
+import numpy as np
+
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "blend_scenes"))
+from cycles_reference import configure_cycles_reference  # noqa: E402
+
+RES = 32
+MATH_OPS = ("ADD", "SUBTRACT", "MULTIPLY", "DIVIDE", "SINE", "COSINE", "TANGENT", "ARCSINE", "ARCCOSINE",
+            "ARCTANGENT", "POWER", "LOGARITHM", "MINIMUM", "MAXIMUM", "ROUND", "LESS_THAN", "GREATER_THAN",
+            "MODULO", "ABSOLUTE", "ARCTAN2", "FLOOR", "CEIL", "FRACT", "SQRT", "INVERSE_SQRT", "SIGN", "EXPONENT",
+            "RADIANS", "DEGREES", "SINH", "COSH", "TANH", "TRUNC", "SNAP", "WRAP", "COMPARE", "MULTIPLY_ADD",
+            "PINGPONG", "SMOOTH_MIN", "SMOOTH_MAX")
+VECTOR_OPS = ("ADD", "SUBTRACT", "MULTIPLY", "DIVIDE", "CROSS_PRODUCT", "PROJECT", "REFLECT", "DOT_PRODUCT",
+              "DISTANCE", "LENGTH", "SCALE", "NORMALIZE", "SNAP", "FLOOR", "CEIL", "MODULO", "FRACTION",
+              "ABSOLUTE", "MINIMUM", "MAXIMUM", "WRAP", "SINE", "COSINE", "TANGENT", "REFRACT", "FACEFORWARD",
+              "MULTIPLY_ADD")
+BLENDS = ("MIX", "DARKEN", "MULTIPLY", "BURN", "LIGHTEN", "SCREEN", "DODGE", "ADD", "OVERLAY", "SOFT_LIGHT",
+          "LINEAR_LIGHT", "DIFFERENCE", "SUBTRACT", "DIVIDE", "HUE", "SATURATION", "COLOR", "VALUE")
+
+
+def setup_scene():
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    scene = bpy.context.scene
+    bpy.ops.mesh.primitive_plane_add(size=2.0)
+    plane = bpy.context.active_object
+    cam_data = bpy.data.cameras.new("cam")
+    cam_data.type = "ORTHO"
+    cam_data.ortho_scale = 2.0
+    cam = bpy.data.objects.new("cam", cam_data)
+    cam.location = (0.0, 0.0, 2.0)
+    scene.collection.objects.link(cam)
+    scene.camera = cam
+    world = bpy.data.worlds.new("black")
+    world.color = (0.0, 0.0, 0.0)
+    scene.world = world
+    r = scene.render
+    r.resolution_x = r.resolution_y = RES
+    r.resolution_percentage = 100
+    r.image_settings.file_format = "OPEN_EXR"
+    r.image_settings.color_depth = "32"
+    r.film_transparent = False
+    scene.view_settings.view_transform = "Standard"
+    configure_cycles_reference(scene, 1)
+    scene.coherent.samples = 1
+    material = bpy.data.materials.new("under_test")
+    material.use_nodes = True
+    plane.data.materials.append(material)
+    return scene, plane, material
+
+
+def fresh_tree(material):
+    nt = material.node_tree
+    nt.nodes.clear()
+    out = nt.nodes.new("ShaderNodeOutputMaterial")
+    emission = nt.nodes.new("ShaderNodeEmission")
+    emission.inputs["Strength"].default_value = 1.0
+    nt.links.new(emission.outputs[0], out.inputs["Surface"])
+    return nt, emission
+
+
+def node(nt, kind, **props):
+    n = nt.nodes.new(kind)
+    for key, value in props.items():
+        setattr(n, key, value)
+    return n
+
+
+def pixel_uv(nt, res=RES):
+    """UV snapped to the centre of the pixel it is seen in."""
+    coord = node(nt, "ShaderNodeTexCoord")
+    snap = node(nt, "ShaderNodeVectorMath", operation="SNAP")
+    snap.inputs[1].default_value = (1.0 / res, 1.0 / res, 1.0)
+    nt.links.new(coord.outputs["UV"], snap.inputs[0])
+    add = node(nt, "ShaderNodeVectorMath", operation="ADD")
+    add.inputs[1].default_value = (0.5 / res, 0.5 / res, 0.0)
+    nt.links.new(snap.outputs[0], add.inputs[0])
+    return add.outputs[0]
+
+
+def separate(nt, vector):
+    sep = node(nt, "ShaderNodeSeparateXYZ")
+    nt.links.new(vector, sep.inputs[0])
+    return sep.outputs
+
+
+def affine(nt, value, scale, offset):
+    n = node(nt, "ShaderNodeMath", operation="MULTIPLY_ADD")
+    nt.links.new(value, n.inputs[0])
+    n.inputs[1].default_value = scale
+    n.inputs[2].default_value = offset
+    return n.outputs[0]
+
+
+def combine(nt, r, g, b):
+    c = node(nt, "ShaderNodeCombineXYZ")
+    for k, s in enumerate((r, g, b)):
+        if isinstance(s, float):
+            c.inputs[k].default_value = s
+        else:
+            nt.links.new(s, c.inputs[k])
+    return c.outputs[0]
+
+
+# -- cases: (node tree) -> the socket that drives the emission colour ----------
+
+
+def math_case(ops):
+    def build(nt):
+        u, v, _ = separate(nt, pixel_uv(nt))
+        a, b = affine(nt, u, 4.0, -2.0), affine(nt, v, 3.0, -1.2)
+        outs = []
+        for op in ops:
+            m = node(nt, "ShaderNodeMath", operation=op)
+            nt.links.new(a, m.inputs[0])
+            nt.links.new(b, m.inputs[1])
+            m.inputs[2].default_value = 0.35
+            outs.append(m.outputs[0])
+        while len(outs) < 3:
+            outs.append(0.0)
+        return combine(nt, *outs)
+    return build
+
+
+def vector_case(op):
+    def build(nt):
+        uv = pixel_uv(nt)
+        u, v, _ = separate(nt, uv)
+        a = combine(nt, affine(nt, u, 4.0, -2.0), affine(nt, v, 3.0, -1.2), 0.7)
+        b = combine(nt, affine(nt, v, -2.0, 1.1), 0.45, affine(nt, u, 2.5, -0.3))
+        m = node(nt, "ShaderNodeVectorMath", operation=op)
+        nt.links.new(a, m.inputs[0])
+        nt.links.new(b, m.inputs[1])
+        m.inputs[2].default_value = (0.3, -0.6, 0.9)
+        m.inputs["Scale"].default_value = 0.8
+        if op in ("DOT_PRODUCT", "DISTANCE", "LENGTH"):
+            return m.outputs["Value"]
+        return m.outputs["Vector"]
+    return build
+
+
+def mix_case(blend, legacy):
+    def build(nt):
+        uv = pixel_uv(nt)
+        u, v, _ = separate(nt, uv)
+        c1 = combine(nt, u, v, 0.35)
+        c2 = combine(nt, affine(nt, v, -1.0, 1.0), 0.8, affine(nt, u, 0.5, 0.1))
+        if legacy:
+            m = node(nt, "ShaderNodeMixRGB", blend_type=blend)
+            fac, a, b = m.inputs[0], m.inputs[1], m.inputs[2]
+        else:
+            m = node(nt, "ShaderNodeMix", data_type="RGBA", blend_type=blend)
+            fac, a, b = m.inputs[0], m.inputs[6], m.inputs[7]
+        nt.links.new(affine(nt, u, 0.6, 0.2), fac)
+        nt.links.new(c1, a)
+        nt.links.new(c2, b)
+        return m.outputs[0] if legacy else m.outputs[2]
+    return build
+
+
+def ramp_case(interpolation):
+    def build(nt):
+        u, _, _ = separate(nt, pixel_uv(nt))
+        ramp = node(nt, "ShaderNodeValToRGB")
+        ramp.color_ramp.interpolation = interpolation
+        e = ramp.color_ramp.elements
+        e[0].position, e[0].color = 0.1, (0.9, 0.1, 0.2, 1.0)
+        e[1].position, e[1].color = 0.8, (0.1, 0.3, 0.9, 1.0)
+        mid = e.new(0.45)
+        mid.color = (0.2, 0.9, 0.3, 1.0)
+        nt.links.new(u, ramp.inputs[0])
+        return ramp.outputs[0]
+    return build
+
+
+def misc_case(nt):
+    """Invert, RGB to BW, Separate/Combine RGB, Mapping, Clamp and Value/RGB nodes together."""
+    uv = pixel_uv(nt)
+    mapping = node(nt, "ShaderNodeMapping", vector_type="POINT")
+    mapping.inputs["Location"].default_value = (0.1, -0.2, 0.3)
+    mapping.inputs["Rotation"].default_value = (0.3, 0.5, 0.9)
+    mapping.inputs["Scale"].default_value = (1.5, 0.7, 1.2)
+    nt.links.new(uv, mapping.inputs[0])
+    sep = node(nt, "ShaderNodeSeparateRGB")
+    nt.links.new(mapping.outputs[0], sep.inputs[0])
+    invert = node(nt, "ShaderNodeInvert")
+    invert.inputs[0].default_value = 0.7
+    rgb = node(nt, "ShaderNodeRGB")
+    rgb.outputs[0].default_value = (0.2, 0.5, 0.8, 1.0)
+    nt.links.new(rgb.outputs[0], invert.inputs[1])
+    bw = node(nt, "ShaderNodeRGBToBW")
+    nt.links.new(invert.outputs[0], bw.inputs[0])
+    clamp = node(nt, "ShaderNodeClamp")
+    clamp.inputs[1].default_value, clamp.inputs[2].default_value = 0.1, 0.6
+    nt.links.new(sep.outputs[1], clamp.inputs[0])
+    comb = node(nt, "ShaderNodeCombineRGB")
+    nt.links.new(sep.outputs[0], comb.inputs[0])
+    nt.links.new(clamp.outputs[0], comb.inputs[1])
+    mul = node(nt, "ShaderNodeMath", operation="MULTIPLY")
+    nt.links.new(bw.outputs[0], mul.inputs[0])
+    nt.links.new(sep.outputs[2], mul.inputs[1])
+    nt.links.new(mul.outputs[0], comb.inputs[2])
+    return comb.outputs[0]
+
+
+def checker_case(nt):
+    checker = node(nt, "ShaderNodeTexChecker")
+    checker.inputs["Scale"].default_value = 6.0
+    checker.inputs["Color1"].default_value = (0.9, 0.4, 0.1, 1.0)
+    checker.inputs["Color2"].default_value = (0.1, 0.3, 0.7, 1.0)
+    nt.links.new(pixel_uv(nt), checker.inputs["Vector"])
+    return checker.outputs[0]
+
+
+def make_image(name, width, height, alpha=False, is_float=True, colorspace="Non-Color"):
+    """A deterministic RGBA test pattern held only inside Blender (a generated image)."""
+    image = bpy.data.images.new(name, width, height, alpha=alpha, float_buffer=is_float)
+    image.colorspace_settings.name = colorspace  # before the pixels: changing it regenerates the image
+    y, x = np.mgrid[0:height, 0:width].astype(np.float32)
+    rng = np.random.default_rng(7)
+    pixels = np.stack([x / (width - 1), y / (height - 1), rng.random((height, width), dtype=np.float32),
+                       0.25 + 0.75 * rng.random((height, width), dtype=np.float32) if alpha
+                       else np.ones((height, width), np.float32)], axis=-1)
+    image.pixels.foreach_set(pixels.ravel())
+    image.update()
+    return image
+
+
+def image_case(interpolation, extension, res_uv=RES, colorspace="Non-Color", is_float=True, scale=1.0,
+               alpha_out=False, alpha_mode="STRAIGHT", with_alpha=None):
+    def build(nt):
+        tex = node(nt, "ShaderNodeTexImage", interpolation=interpolation, extension=extension)
+        tex.image = make_image(f"pattern_{interpolation}_{extension}_{colorspace}_{is_float}_{alpha_mode}", 8, 8,
+                               alpha=alpha_out if with_alpha is None else with_alpha, is_float=is_float,
+                               colorspace=colorspace)
+        tex.image.alpha_mode = alpha_mode
+        uv = pixel_uv(nt, res_uv)
+        if scale != 1.0:
+            mapping = node(nt, "ShaderNodeMapping", vector_type="POINT")
+            mapping.inputs["Scale"].default_value = (scale, scale, 1.0)
+            mapping.inputs["Location"].default_value = (-0.4, -0.3, 0.0)
+            nt.links.new(uv, mapping.inputs[0])
+            uv = mapping.outputs[0]
+        nt.links.new(uv, tex.inputs["Vector"])
+        if alpha_out:
+            mul = node(nt, "ShaderNodeVectorMath", operation="SCALE")
+            nt.links.new(tex.outputs["Color"], mul.inputs[0])
+            nt.links.new(tex.outputs["Alpha"], mul.inputs["Scale"])
+            return mul.outputs[0]
+        return tex.outputs["Color"]
+    return build
+
+
+def snapped(nt, vector, step):
+    snap = node(nt, "ShaderNodeVectorMath", operation="SNAP")
+    snap.inputs[1].default_value = (step, step, step)
+    nt.links.new(vector, snap.inputs[0])
+    return snap.outputs[0]
+
+
+def texcoord_case(nt):
+    """Generated, Object and Normal outputs of Texture Coordinate and a UV Map node, snapped per pixel."""
+    coord = node(nt, "ShaderNodeTexCoord")
+    uvmap = node(nt, "ShaderNodeUVMap", uv_map="UVMap")
+    gen_x = separate(nt, snapped(nt, coord.outputs["Generated"], 1.0 / RES))[0]
+    obj_y = separate(nt, snapped(nt, coord.outputs["Object"], 2.0 / RES))[1]
+    nrm_z = separate(nt, coord.outputs["Normal"])[2]
+    uv_x = separate(nt, snapped(nt, uvmap.outputs["UV"], 1.0 / RES))[0]
+    blue = node(nt, "ShaderNodeMath", operation="MULTIPLY_ADD")
+    nt.links.new(uv_x, blue.inputs[0])
+    blue.inputs[1].default_value = 0.5
+    nt.links.new(nrm_z, blue.inputs[2])
+    return combine(nt, gen_x, affine(nt, obj_y, 0.5, 0.5), blue.outputs[0])
+
+
+def group_case(nt):
+    """A nested node group: inner group scales, outer adds; plus a reroute and a muted node."""
+    inner = bpy.data.node_groups.new("inner", "ShaderNodeTree")
+    inner.inputs.new("NodeSocketFloat", "x")
+    inner.outputs.new("NodeSocketFloat", "y")
+    gi, go = inner.nodes.new("NodeGroupInput"), inner.nodes.new("NodeGroupOutput")
+    m = inner.nodes.new("ShaderNodeMath")
+    m.operation = "MULTIPLY"
+    m.inputs[1].default_value = 0.5
+    inner.links.new(gi.outputs[0], m.inputs[0])
+    inner.links.new(m.outputs[0], go.inputs[0])
+    outer = bpy.data.node_groups.new("outer", "ShaderNodeTree")
+    outer.inputs.new("NodeSocketFloat", "x")
+    outer.outputs.new("NodeSocketFloat", "y")
+    gi, go = outer.nodes.new("NodeGroupInput"), outer.nodes.new("NodeGroupOutput")
+    g = outer.nodes.new("ShaderNodeGroup")
+    g.node_tree = inner
+    add = outer.nodes.new("ShaderNodeMath")
+    add.inputs[1].default_value = 0.25
+    outer.links.new(gi.outputs[0], g.inputs[0])
+    outer.links.new(g.outputs[0], add.inputs[0])
+    outer.links.new(add.outputs[0], go.inputs[0])
+    u, v, _ = separate(nt, pixel_uv(nt))
+    top = node(nt, "ShaderNodeGroup")
+    top.node_tree = outer
+    reroute = node(nt, "NodeReroute")
+    nt.links.new(u, reroute.inputs[0])
+    nt.links.new(reroute.outputs[0], top.inputs[0])
+    muted = node(nt, "ShaderNodeMath", operation="SINE")
+    muted.mute = True
+    nt.links.new(v, muted.inputs[0])
+    return combine(nt, top.outputs[0], muted.outputs[0], 0.5)
+
+
+def normal_map_case(space):
+    """Diffuse plane, normal from an image through a Normal Map node, lit by a sun (direct light only).
+
+    Flat plane, constant tangents, pixel-snapped normal texels, a sun of zero
+    angle and no bounces: every pixel's radiance is deterministic.
+    """
+    def build(nt):
+        return ("normal_map", space)
+    return build
+
+
+def build_normal_map(scene, material, space):
+    nt = material.node_tree
+    nt.nodes.clear()
+    out = nt.nodes.new("ShaderNodeOutputMaterial")
+    diffuse = node(nt, "ShaderNodeBsdfDiffuse")
+    diffuse.inputs["Color"].default_value = (0.8, 0.7, 0.6, 1.0)
+    nt.links.new(diffuse.outputs[0], out.inputs["Surface"])
+    tex = node(nt, "ShaderNodeTexImage", interpolation="Closest")
+    image = bpy.data.images.new(f"normals_{space}", 8, 8, float_buffer=True)
+    image.colorspace_settings.name = "Non-Color"
+    rng = np.random.default_rng(3)
+    xy = rng.uniform(-0.45, 0.45, (8, 8, 2)).astype(np.float32)
+    z = np.sqrt(1.0 - (xy ** 2).sum(axis=-1, keepdims=True))
+    n = np.concatenate([xy, z], axis=-1) * 0.5 + 0.5
+    image.pixels.foreach_set(np.concatenate([n, np.ones((8, 8, 1), np.float32)], axis=-1).ravel())
+    tex.image = image
+    nt.links.new(pixel_uv(nt), tex.inputs["Vector"])
+    nmap = node(nt, "ShaderNodeNormalMap", space=space)
+    nmap.inputs["Strength"].default_value = 0.8
+    nt.links.new(tex.outputs["Color"], nmap.inputs["Color"])
+    nt.links.new(nmap.outputs[0], diffuse.inputs["Normal"])
+    if "sun" not in bpy.data.objects:
+        sun = bpy.data.objects.new("sun", bpy.data.lights.new("sun", "SUN"))
+        sun.data.energy = 2.0
+        sun.data.angle = 0.0  # a point-like sun: deterministic direct light
+        sun.rotation_euler = (0.3, 0.2, 0.0)
+        scene.collection.objects.link(sun)
+    scene.cycles.max_bounces = 0
+    scene.coherent.max_bounces = 0
+
+
+def cases():
+    c = {}
+    for i in range(0, len(MATH_OPS), 3):
+        c[f"math_{i // 3:02d}"] = math_case(MATH_OPS[i:i + 3])
+    for op in VECTOR_OPS:
+        c[f"vector_{op.lower()}"] = vector_case(op)
+    for blend in BLENDS:
+        c[f"mix_{blend.lower()}"] = mix_case(blend, legacy=False)
+    c["mixrgb_overlay"] = mix_case("OVERLAY", legacy=True)
+    for interp in ("LINEAR", "CONSTANT", "EASE", "B_SPLINE"):
+        c[f"ramp_{interp.lower()}"] = ramp_case(interp)
+    c["misc"] = misc_case
+    c["checker"] = checker_case
+    c["group"] = group_case
+    c["image_closest_repeat"] = image_case("Closest", "REPEAT", scale=1.7)
+    c["image_closest_extend"] = image_case("Closest", "EXTEND", scale=1.7)
+    c["image_closest_clip"] = image_case("Closest", "CLIP", scale=1.7)
+    c["image_linear"] = image_case("Linear", "REPEAT", scale=1.3)
+    c["image_cubic"] = image_case("Cubic", "EXTEND", scale=1.3)
+    c["image_srgb_bytes"] = image_case("Closest", "REPEAT", colorspace="sRGB", is_float=False)
+    c["image_alpha"] = image_case("Closest", "REPEAT", alpha_out=True, is_float=False)
+    # Alpha output unused: Cycles' colour is then associated (premultiplied) for straight images.
+    c["image_straight_colour"] = image_case("Closest", "REPEAT", colorspace="sRGB", is_float=False,
+                                            with_alpha=True)
+    # Premultiplied image with the Alpha output used: the colour is unassociated.
+    c["image_premul_alpha"] = image_case("Closest", "REPEAT", alpha_out=True, alpha_mode="PREMUL")
+    c["texcoords"] = texcoord_case
+    c["normal_map_tangent"] = normal_map_case("TANGENT")
+    c["normal_map_object"] = normal_map_case("OBJECT")
+    return c
+
+
+# -- whole scenes -------------------------------------------------------------------
+
+SCENE_SPP = 64
+SCENE_RES = 64
+
+
+def roughness_group():
+    """A node group computing roughness from a checker factor: 0.3 + 0.4 * fac."""
+    group = bpy.data.node_groups.new("roughness_from_fac", "ShaderNodeTree")
+    group.inputs.new("NodeSocketFloat", "fac")
+    group.outputs.new("NodeSocketFloat", "roughness")
+    gi, go = group.nodes.new("NodeGroupInput"), group.nodes.new("NodeGroupOutput")
+    m = group.nodes.new("ShaderNodeMath")
+    m.operation = "MULTIPLY_ADD"
+    m.inputs[1].default_value, m.inputs[2].default_value = 0.4, 0.3
+    group.links.new(gi.outputs[0], m.inputs[0])
+    group.links.new(m.outputs[0], go.inputs[0])
+    return group
+
+
+def textured_scene():
+    """A lit cube on a ground plane, both textured through UVs, a Mapping node and a node group."""
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    scene = bpy.context.scene
+    bpy.ops.mesh.primitive_plane_add(size=6.0)
+    ground = bpy.context.active_object
+    bpy.ops.mesh.primitive_cube_add(size=1.2, location=(0.0, 0.0, 0.6), rotation=(0.0, 0.0, 0.5))
+    cube = bpy.context.active_object
+    material = bpy.data.materials.new("textured")
+    material.use_nodes = True
+    nt = material.node_tree
+    bsdf = nt.nodes["Principled BSDF"]
+    tex = node(nt, "ShaderNodeTexImage", interpolation="Linear", extension="REPEAT")
+    tex.image = make_image("albedo", 16, 16, is_float=False, colorspace="sRGB")
+    coord = node(nt, "ShaderNodeTexCoord")
+    mapping = node(nt, "ShaderNodeMapping", vector_type="POINT")
+    mapping.inputs["Scale"].default_value = (2.0, 3.0, 1.0)
+    mapping.inputs["Rotation"].default_value = (0.0, 0.0, 0.4)
+    nt.links.new(coord.outputs["UV"], mapping.inputs[0])
+    nt.links.new(mapping.outputs[0], tex.inputs["Vector"])
+    nt.links.new(tex.outputs["Color"], bsdf.inputs["Base Color"])
+    checker = node(nt, "ShaderNodeTexChecker")
+    checker.inputs["Scale"].default_value = 4.0
+    group = node(nt, "ShaderNodeGroup")
+    group.node_tree = roughness_group()
+    nt.links.new(checker.outputs["Fac"], group.inputs[0])
+    nt.links.new(group.outputs[0], bsdf.inputs["Roughness"])
+    for ob in (ground, cube):
+        ob.data.materials.append(material)
+    sun = bpy.data.objects.new("sun", bpy.data.lights.new("sun", "SUN"))
+    sun.data.energy = 3.0
+    sun.rotation_euler = (0.6, 0.2, 0.8)
+    scene.collection.objects.link(sun)
+    cam = bpy.data.objects.new("cam", bpy.data.cameras.new("cam"))
+    cam.location = (4.0, -4.0, 3.5)
+    cam.rotation_euler = (0.95, 0.0, 0.785)
+    scene.collection.objects.link(cam)
+    scene.camera = cam
+    world = bpy.data.worlds.new("grey")
+    world.color = (0.05, 0.05, 0.05)
+    scene.world = world
+    r = scene.render
+    r.resolution_x = r.resolution_y = SCENE_RES
+    r.resolution_percentage = 100
+    r.image_settings.file_format = "OPEN_EXR"
+    r.image_settings.color_depth = "32"
+    configure_cycles_reference(scene, SCENE_SPP)
+    scene.coherent.samples = SCENE_SPP
+    return scene
+
+
+def malformed_scene():
+    """A missing image file and node groups nested deeper than the compiler's limit."""
+    scene, plane, material = setup_scene()
+    nt, emission = fresh_tree(material)
+    tex = node(nt, "ShaderNodeTexImage")
+    tex.name = "missing_tex"
+    missing = bpy.data.images.new("missing", 4, 4)
+    missing.source = "FILE"
+    missing.filepath = "/nonexistent/missing_texture.png"
+    tex.image = missing
+    nt.links.new(tex.outputs["Color"], emission.inputs["Color"])
+    inner = None
+    for depth in range(20):
+        group = bpy.data.node_groups.new(f"level{depth}", "ShaderNodeTree")
+        group.inputs.new("NodeSocketFloat", "x")
+        group.outputs.new("NodeSocketFloat", "y")
+        gi, go = group.nodes.new("NodeGroupInput"), group.nodes.new("NodeGroupOutput")
+        if inner is None:
+            group.links.new(gi.outputs[0], go.inputs[0])
+        else:
+            g = group.nodes.new("ShaderNodeGroup")
+            g.node_tree = inner
+            group.links.new(gi.outputs[0], g.inputs[0])
+            group.links.new(g.outputs[0], go.inputs[0])
+        inner = group
+    top = node(nt, "ShaderNodeGroup")
+    top.name = "deep_group"
+    top.node_tree = inner
+    u, _, _ = separate(nt, pixel_uv(nt))
+    nt.links.new(u, top.inputs[0])
+    # Strength = 1 + what the too-deep group gives (its default, 0): the magenta stays visible.
+    add = node(nt, "ShaderNodeMath", operation="ADD")
+    add.inputs[1].default_value = 1.0
+    nt.links.new(top.outputs[0], add.inputs[0])
+    nt.links.new(add.outputs[0], emission.inputs["Strength"])
+    return scene
+
+
+def render_both(scene, out_dir, name, engines=("CYCLES", "COHERENT")):
+    for engine in engines:
+        scene.render.engine = engine
+        scene.render.filepath = os.path.join(out_dir, f"{name}_{engine.lower()}.exr")
+        bpy.ops.render.render(write_still=True)
+    print(f"NODE_CASE {name}")
+    sys.stdout.flush()
+
+
+def main():
+    args = sys.argv[sys.argv.index("--") + 1:]
+    out_dir, names = args[0], args[1:]
+    if names == ["scene_textured"]:
+        render_both(textured_scene(), out_dir, "scene_textured")
+        return
+    if names == ["malformed"]:
+        render_both(malformed_scene(), out_dir, "malformed", engines=("COHERENT",))
+        return
+    scene, plane, material = setup_scene()
+    all_cases = cases()
+    for name in names or list(all_cases):
+        nt, emission = fresh_tree(material)
+        driver = all_cases[name](nt)
+        if isinstance(driver, tuple):  # a lit case that builds its own material
+            build_normal_map(scene, material, driver[1])
+        else:
+            nt.links.new(driver, emission.inputs["Color"])
+        render_both(scene, out_dir, name)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,176 @@
+"""addon/coherent/shader_compiler.py without Blender: node graphs built from
+plain stand-ins for bpy's nodes, sockets and links.
+
+Checks what the compiler decides on its own: constant subgraphs fold (with
+the native formulas) so a constant graph yields no program; node groups are
+entered (nested), reroutes and muted nodes followed; a group that contains
+itself and one nested too deep warn naming the node and fall back to the
+default; unsupported nodes warn once per type; and the program it emits for a
+varying graph passes the native validation and evaluates as the nodes say.
+"""
+import importlib.util
+import sys
+from pathlib import Path
+
+import pytest
+
+ADDON = Path(__file__).resolve().parents[2] / "addon" / "coherent"
+sys.path.insert(0, str(ADDON))
+import _coherent as native  # noqa: E402
+
+spec = importlib.util.spec_from_file_location("shader_compiler", ADDON / "shader_compiler.py")
+sc = importlib.util.module_from_spec(spec)
+spec.loader.exec_module(sc)
+
+_ids = iter(range(1, 1 << 30))
+
+
+class Socket:
+    def __init__(self, node, name, kind="VALUE", default=0.0, identifier=None):
+        self.node, self.name, self.type, self.default_value = node, name, kind, default
+        self.identifier = identifier or name
+        self.links = []
+
+    @property
+    def is_linked(self):
+        return bool(self.links)
+
+
+class Link:
+    def __init__(self, from_socket, to_socket):
+        self.from_socket, self.to_socket, self.from_node = from_socket, to_socket, from_socket.node
+        self.is_muted, self.is_valid = False, True
+
+
+class Sockets(list):
+    def __getitem__(self, key):
+        if isinstance(key, str):
+            return next(s for s in self if s.name == key)
+        return list.__getitem__(self, key)
+
+    def get(self, key):
+        return next((s for s in self if s.name == key), None)
+
+
+class Node:
+    def __init__(self, idname, name=None, inputs=(), outputs=(), **props):
+        self.bl_idname, self.name, self.mute, self.internal_links = idname, name or idname, False, []
+        self.inputs = Sockets(Socket(self, *spec) for spec in inputs)
+        self.outputs = Sockets(Socket(self, *spec) for spec in outputs)
+        self._pointer = next(_ids)
+        self.__dict__.update(props)
+
+    def as_pointer(self):
+        return self._pointer
+
+
+class Tree:
+    def __init__(self, name, nodes):
+        self.name, self.nodes = name, nodes
+
+
+def link(from_socket, to_socket):
+    to_socket.links.append(Link(from_socket, to_socket))
+
+
+def math(op, a=0.0, b=0.0):
+    return Node("ShaderNodeMath", inputs=[("A", "VALUE", a), ("B", "VALUE", b), ("C", "VALUE", 0.0)],
+                outputs=[("Value",)], operation=op, use_clamp=False)
+
+
+def uv_node():
+    return Node("ShaderNodeTexCoord", outputs=[("UV", "VECTOR"), ("Generated", "VECTOR")])
+
+
+def compiler(fold=native.fold_shader_constants):
+    warnings = []
+    builder = sc.ProgramBuilder(fold)
+    return sc.GraphCompiler(builder, warnings.append, lambda image, node: 0, lambda name: 0), builder, warnings
+
+
+def consumer(kind="VALUE"):
+    return Socket(Node("ShaderNodeEmission"), "Strength", kind, 1.0)
+
+
+def test_constant_subgraph_folds_with_native_formulas():
+    gc, builder, warnings = compiler()
+    a, b = math("POWER", 2.0, 0.5), math("ADD", 0.0, 1.0)
+    link(a.outputs[0], b.inputs[0])
+    target = consumer()
+    link(b.outputs[0], target)
+    value = gc.input_value(target)
+    assert sc.is_constant(value) and value == pytest.approx(2.0 ** 0.5 + 1.0, rel=1e-6)
+    assert builder.code == [] and builder.program() is None and warnings == []
+
+
+def test_varying_graph_emits_a_valid_program():
+    gc, builder, warnings = compiler()
+    coord, sep, mul = uv_node(), Node("ShaderNodeSeparateXYZ", inputs=[("Vector", "VECTOR", (0, 0, 0))],
+                                      outputs=[("X",), ("Y",), ("Z",)]), math("MULTIPLY", 0.0, 3.0)
+    link(coord.outputs["UV"], sep.inputs[0])
+    link(sep.outputs["Y"], mul.inputs[0])
+    target = consumer()
+    link(mul.outputs[0], target)
+    value = gc.input_value(target)
+    assert isinstance(value, sc.Reg) and value.width == 1
+    assert [row[0] for row in builder.code] == [sc.OP["TEX_COORD"], sc.OP["MATH"]]
+    assert builder.uses == {"uv"}
+    builder.output("emission", 0, value)
+    scene = native.Scene()
+    scene.set_shading_inputs(uv_names=[""])
+    scene.add_material("m", closures=[], program=builder.program())  # validated natively
+
+
+def test_groups_reroutes_and_muted_nodes_are_followed():
+    gc, builder, warnings = compiler()
+    inner_in = Node("NodeGroupInput", outputs=[("x", "VALUE", 0.0, "Input_0")])
+    inner_out = Node("NodeGroupOutput", inputs=[("y", "VALUE", 0.0, "Output_0")], is_active_output=True)
+    double = math("MULTIPLY", 0.0, 2.0)
+    link(inner_in.outputs[0], double.inputs[0])
+    link(double.outputs[0], inner_out.inputs[0])
+    group = Node("ShaderNodeGroup", inputs=[("x", "VALUE", 0.0, "Input_0")],
+                 outputs=[("y", "VALUE", 0.0, "Output_0")], node_tree=Tree("double", [inner_in, double, inner_out]))
+    reroute = Node("NodeReroute", inputs=[("In", "VALUE")], outputs=[("Out", "VALUE")])
+    muted = math("SINE")
+    muted.mute = True
+    muted.internal_links = [Link(muted.inputs[0], muted.outputs[0])]
+    muted.internal_links[0].to_socket = muted.outputs[0]
+    link(math("ADD", 0.25, 0.5).outputs[0], reroute.inputs[0])
+    link(reroute.outputs[0], muted.inputs[0])
+    link(muted.outputs[0], group.inputs[0])
+    target = consumer()
+    link(group.outputs[0], target)
+    assert gc.input_value(target) == pytest.approx(1.5)  # (0.25 + 0.5) * 2, the sine muted
+    assert warnings == []
+
+
+def test_self_containing_and_too_deep_groups_warn_with_the_node_name():
+    gc, builder, warnings = compiler()
+    out = Node("NodeGroupOutput", inputs=[("y", "VALUE", 0.0, "Output_0")], is_active_output=True)
+    tree = Tree("loop", [out])
+    inner = Node("ShaderNodeGroup", name="inner_ref", outputs=[("y", "VALUE", 0.0, "Output_0")], node_tree=tree)
+    link(inner.outputs[0], out.inputs[0])
+    tree.nodes.append(inner)
+    top = Node("ShaderNodeGroup", name="top", outputs=[("y", "VALUE", 0.7, "Output_0")], node_tree=tree)
+    target = consumer()
+    link(top.outputs[0], target)
+    value = gc.input_value(target)
+    assert sc.is_constant(value)
+    assert any("inner_ref" in w and "contains itself" in w for w in warnings), warnings
+
+
+def test_unsupported_nodes_warn_once_per_type_and_use_the_default():
+    gc, builder, warnings = compiler()
+    targets = []
+    for name in ("noise_a", "noise_b"):
+        noise = Node("ShaderNodeTexNoise", name=name, outputs=[("Fac", "VALUE", 0.25)])
+        target = consumer()
+        link(noise.outputs[0], target)
+        targets.append(gc.input_value(target))
+    assert targets == [0.25, 0.25]
+    assert len(warnings) == 1 and "ShaderNodeTexNoise" in warnings[0] and "noise_a" in warnings[0]
+
+
+def test_colour_to_float_uses_luminance_and_float_to_colour_broadcasts():
+    assert sc.convert_constant((1.0, 0.0, 0.0), 1) == pytest.approx(sc._LUMA[0])
+    assert sc.convert_constant(0.5, 3) == (0.5, 0.5, 0.5)

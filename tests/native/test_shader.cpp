@@ -1,0 +1,149 @@
+// Shader programs (native/shader): validation, the interpreter against
+// hand-computed values, and the OIIO-backed texture store.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <vector>
+
+#include "scene/scene.h"
+#include "shader/eval.h"
+#include "shader/node_color.h"
+#include "shader/node_math.h"
+#include "shader/program.h"
+#include "shader/textures.h"
+
+namespace coherent {
+namespace {
+
+ShaderInstr instr(ShaderOp op, uint16_t mode, std::initializer_list<uint16_t> outs,
+                  std::initializer_list<uint16_t> ins, uint32_t data = 0) {
+    ShaderInstr in;
+    in.op = op;
+    in.mode = mode;
+    int k = 0;
+    for (uint16_t o : outs) in.out[k++] = o;
+    k = 0;
+    for (uint16_t i : ins) in.in[k++] = i;
+    in.data = data;
+    return in;
+}
+
+TEST(ShaderProgram, ValidateRejectsRegistersOutsideTheFile) {
+    ShaderProgram p;
+    p.constants.assign(4, 0.0f);
+    p.code.push_back(instr(ShaderOp::Math, 0, {3}, {0, 1, 2}));
+    EXPECT_EQ(p.validate(0, 0), "");
+    p.code.push_back(instr(ShaderOp::VectorMath, 0, {2}, {0, 1, 1, 0}));  // vec3 output at 2 needs 2..4
+    EXPECT_NE(p.validate(0, 0).find("output 0"), std::string::npos);
+}
+
+TEST(ShaderProgram, ValidateRejectsMissingImagesUvLayersAndUnknownModes) {
+    ShaderProgram p;
+    p.constants.assign(8, 0.0f);
+    p.code.push_back(instr(ShaderOp::ImageTexture, 0, {0, 3}, {4}, /*image*/ 2));
+    EXPECT_NE(p.validate(2, 0).find("image 2"), std::string::npos);
+    EXPECT_EQ(p.validate(3, 0), "");
+    p.code = {instr(ShaderOp::TexCoord, uint16_t(TexCoordKind::Uv), {0}, {}, /*layer*/ 1)};
+    EXPECT_NE(p.validate(0, 1).find("UV layer 1"), std::string::npos);
+    p.code = {instr(ShaderOp::Math, uint16_t(shader::MathOp::Count), {0}, {1, 2, 3})};
+    EXPECT_NE(p.validate(0, 0).find("unknown"), std::string::npos);
+}
+
+TEST(ShaderNodes, MathFollowsCyclesSafeConventions) {
+    using shader::MathOp;
+    EXPECT_EQ(shader::svm_math(MathOp::Divide, 1.0f, 0.0f, 0.0f), 0.0f);
+    EXPECT_EQ(shader::svm_math(MathOp::Power, -2.0f, 0.5f, 0.0f), 0.0f);
+    EXPECT_EQ(shader::svm_math(MathOp::Power, -2.0f, 3.0f, 0.0f), -8.0f);
+    EXPECT_EQ(shader::svm_math(MathOp::Logarithm, -1.0f, 2.0f, 0.0f), 0.0f);
+    EXPECT_FLOAT_EQ(shader::svm_math(MathOp::Wrap, 5.5f, 2.0f, 0.0f), 1.5f);
+    EXPECT_FLOAT_EQ(shader::svm_math(MathOp::Pingpong, 3.0f, 2.0f, 0.0f), 1.0f);
+    EXPECT_EQ(shader::svm_math(MathOp::Compare, 1.0f, 1.05f, 0.1f), 1.0f);
+}
+
+TEST(ShaderNodes, HsvRoundTripsAndCheckerAlternates) {
+    const Vec3f c{0.2f, 0.7f, 0.4f};
+    const Vec3f back = shader::hsv_to_rgb(shader::rgb_to_hsv(c));
+    EXPECT_NEAR(back.x, c.x, 1e-6f);
+    EXPECT_NEAR(back.y, c.y, 1e-6f);
+    EXPECT_NEAR(back.z, c.z, 1e-6f);
+    EXPECT_NE(shader::svm_checker({0.5f, 0.5f, 0.5f}), shader::svm_checker({1.5f, 0.5f, 0.5f}));
+}
+
+// A one-triangle scene whose material's emission is a program of its UVs.
+struct UvScene {
+    Scene scene;
+    std::vector<float> positions{0, 0, 0, 1, 0, 0, 0, 1, 0};
+    std::vector<uint32_t> indices{0, 1, 2};
+    std::vector<float> uvs{0.0f, 0.0f, 4.0f, 0.0f, 0.0f, 2.0f};
+    UvScene() {
+        scene.shading.uv_names = {""};
+        MeshInput mesh;
+        mesh.positions = positions.data();
+        mesh.vertex_count = 3;
+        mesh.indices = indices.data();
+        mesh.triangle_count = 1;
+        mesh.shading.uvs = {uvs.data()};
+        scene.add_mesh(mesh);
+    }
+};
+
+TEST(ShaderEval, EmissionFromInterpolatedUvs) {
+    UvScene s;
+    ASSERT_EQ(s.scene.shading.uvs.at(0).size(), 3u);
+    auto program = std::make_shared<ShaderProgram>();
+    program->constants.assign(3, 0.0f);
+    program->code.push_back(instr(ShaderOp::TexCoord, uint16_t(TexCoordKind::Uv), {0}, {}, 0));
+    program->outputs.push_back({ShaderField::Emission, 0, 0});
+    ASSERT_EQ(program->validate(0, 1), "");
+    Material m;
+    m.program = program;
+    ShadingGeometry g;
+    g.u = 0.25f;  // barycentric of corner 1
+    g.v = 0.5f;   // of corner 2
+    g.n = g.ng = g.wo = Vec3f{0.0f, 0.0f, 1.0f};
+    Material out;
+    Vec3f n;
+    evaluate_material(s.scene, m, g, out, n);
+    EXPECT_FLOAT_EQ(out.emission.x, 1.0f);  // 0.25 * 4
+    EXPECT_FLOAT_EQ(out.emission.y, 1.0f);  // 0.5 * 2
+    EXPECT_FLOAT_EQ(out.emission.z, 0.0f);
+}
+
+TEST(TextureStore, PixelBuffersAreLookedUpBottomUpWithRepeatAndClip) {
+    TextureStore store(64);
+    // 2x2 RGB, first row at the top: top row red, green; bottom row blue, white.
+    const float pixels[12] = {1, 0, 0, 0, 1, 0, 0, 0, 1, 1, 1, 1};
+    const uint32_t id = store.add_pixels("test", 2, 2, 3, pixels);
+    EXPECT_TRUE(store.warnings().empty());
+    float c[4];
+    TextureLookup closest;
+    closest.interp = TextureLookup::Interp::Closest;
+    store.lookup(id, 0.25f, 0.25f, closest, c);  // bottom-left texel: blue
+    EXPECT_EQ(c[0], 0.0f);
+    EXPECT_EQ(c[2], 1.0f);
+    EXPECT_EQ(c[3], 1.0f);
+    store.lookup(id, 1.25f, 0.75f, closest, c);  // repeats to the top-left texel: red
+    EXPECT_EQ(c[0], 1.0f);
+    EXPECT_EQ(c[1], 0.0f);
+    closest.extension = TextureLookup::Extension::Clip;
+    store.lookup(id, 1.25f, 0.75f, closest, c);
+    EXPECT_EQ(c[0] + c[1] + c[2] + c[3], 0.0f);
+}
+
+TEST(TextureStore, MissingAndEmptyImagesAreMagentaWithAWarning) {
+    TextureStore store(64);
+    const uint32_t missing = store.add_file("/nonexistent/nope.png", "Material 'm', node 'n'");
+    const uint32_t empty = store.add_pixels("Material 'm', node 'e'", 0, 0, 4, nullptr);
+    ASSERT_EQ(store.warnings().size(), 2u);
+    EXPECT_NE(store.warnings()[0].find("node 'n'"), std::string::npos);
+    float c[4];
+    for (uint32_t id : {missing, empty}) {
+        store.lookup(id, 0.5f, 0.5f, TextureLookup{}, c);
+        EXPECT_EQ(c[0], 1.0f);
+        EXPECT_EQ(c[1], 0.0f);
+        EXPECT_EQ(c[2], 1.0f);
+    }
+}
+
+}  // namespace
+}  // namespace coherent
