@@ -16,6 +16,8 @@
 #include <atomic>
 #include <chrono>
 #include <cmath>
+#include <cstdint>
+#include <bit>
 #include <thread>
 
 namespace coherent {
@@ -33,24 +35,41 @@ constexpr float kEpsilon = 1e-10f;
 constexpr float kAlbedoBias = 0.01f;
 // Half side of the box over which the noisy per-pixel variances are averaged.
 constexpr int kVarianceRadius = 2;
-constexpr int kBandRows = 16;
+constexpr int kBandRows = 32;
 
-// One pixel as the filter reads it.
-struct Pixel {
-    float a[3], b[3];          // demodulated means of the even (a) and odd (b) halves
-    float va[3], vb[3];        // their estimated variances
-    float albedo[3], normal[3];
-    float albedo_var, normal_var;  // variance of the feature means, summed over channels
-    float modulation[3];       // what demodulation divided by
-    float n_even, n_odd;
-    bool valid;                // has samples
+// The filter's inputs as planes (one float per pixel each), so the inner
+// loops over a row run over contiguous floats and vectorise.
+enum Plane : int {
+    kA,                  // demodulated mean of the even half, 3 planes (RGB)
+    kB = kA + 3,         // of the odd half
+    kVarA = kB + 3,      // estimated variance of kA's means
+    kVarB = kVarA + 3,
+    kAlbedo = kVarB + 3,
+    kNormal = kAlbedo + 3,
+    kAlbedoVar,          // variance of the feature means, summed over channels
+    kNormalVar,
+    kValid,              // 1 where the pixel has samples, else 0
+    kPlaneCount
 };
 
 struct Image {
     int width = 0, height = 0;
-    std::vector<Pixel> px;
-    const Pixel& at(int x, int y) const { return px[size_t(y) * size_t(width) + size_t(x)]; }
+    std::vector<float> planes[kPlaneCount];
+    std::vector<float> modulation;        // 3 a pixel: what the full mean is remodulated with
+    std::vector<float> n_even, n_odd;     // samples per half
+    float* plane(int p) { return planes[p].data(); }
+    const float* plane(int p) const { return planes[p].data(); }
 };
+
+// exp(x) for x <= 0 to ~1e-4 relative: 2^(x log2 e) from the exponent bits
+// and a cubic for the fraction. Unlike std::exp it vectorises, and weights
+// need no more precision.
+inline float exp_negative(float x) {
+    const float t = std::max(x, -80.0f) * 1.44269504f;
+    const float whole = std::floor(t), f = t - whole;
+    const float p = 1.0f + f * (0.69606564f + f * (0.22449434f + f * 0.07944024f));
+    return p * std::bit_cast<float>((int32_t(whole) + 127) << 23);
+}
 
 // Variance of a mean of n samples from the difference of its two halves'
 // sums: |even mean - odd mean|^2 n_e n_o / n^2 (film.h), summed over channels.
@@ -69,13 +88,12 @@ float feature_variance(const float* sum, const float* sum_odd, uint32_t n, uint3
 // Each half is demodulated by its own albedo: a pixel's coverage of a bright
 // emitter or a texture edge varies between the halves in colour and albedo
 // alike, and the ratio cancels it.
-bool read_pixel(const Film::Sums& s, size_t i, Pixel& p) {
-    p = Pixel{};
+bool read_pixel(const Film::Sums& s, size_t i, Image& img) {
     const uint32_t n = s.count[i], n_odd = s.count_odd[i], n_even = n - n_odd;
-    p.valid = n > 0;
-    if (!p.valid) return true;
+    img.planes[kValid][i] = n > 0 ? 1.0f : 0.0f;
+    if (n == 0) return true;
     if (!n_odd || !n_even) return false;
-    p.n_even = float(n_even), p.n_odd = float(n_odd);
+    img.n_even[i] = float(n_even), img.n_odd[i] = float(n_odd);
     const float inv = 1.0f / float(n);
     for (int c = 0; c < 3; ++c) {
         float albedo = 1.0f, even_albedo = 1.0f, odd_albedo = 1.0f;
@@ -84,53 +102,19 @@ bool read_pixel(const Film::Sums& s, size_t i, Pixel& p) {
             odd_albedo = s.albedo_odd[3 * i + c] / float(n_odd);
             even_albedo = (s.albedo[3 * i + c] - s.albedo_odd[3 * i + c]) / float(n_even);
         }
-        p.albedo[c] = albedo;
-        p.normal[c] = s.normal ? s.normal[3 * i + c] * inv : 0.0f;
-        p.modulation[c] = std::max(albedo, 0.0f) + kAlbedoBias;
+        img.planes[kAlbedo + c][i] = albedo;
+        img.planes[kNormal + c][i] = s.normal ? s.normal[3 * i + c] * inv : 0.0f;
+        img.modulation[3 * i + c] = std::max(albedo, 0.0f) + kAlbedoBias;
         const float odd = s.rgb_odd[3 * i + c] / float(n_odd);
         const float even = (s.rgba[4 * i + c] - s.rgb_odd[3 * i + c]) / float(n_even);
-        p.a[c] = even / (std::max(even_albedo, 0.0f) + kAlbedoBias);
-        p.b[c] = odd / (std::max(odd_albedo, 0.0f) + kAlbedoBias);
+        img.planes[kA + c][i] = even / (std::max(even_albedo, 0.0f) + kAlbedoBias);
+        img.planes[kB + c][i] = odd / (std::max(odd_albedo, 0.0f) + kAlbedoBias);
     }
     if (s.albedo) {
-        p.albedo_var = feature_variance(s.albedo + 3 * i, s.albedo_odd + 3 * i, n, n_odd);
-        p.normal_var = feature_variance(s.normal + 3 * i, s.normal_odd + 3 * i, n, n_odd);
+        img.planes[kAlbedoVar][i] = feature_variance(s.albedo + 3 * i, s.albedo_odd + 3 * i, n, n_odd);
+        img.planes[kNormalVar][i] = feature_variance(s.normal + 3 * i, s.normal_odd + 3 * i, n, n_odd);
     }
     return true;
-}
-
-// Each half's variance: Var[even mean] = E[(even - odd)^2] n_o / n, with
-// (even - odd)^2 averaged over a small box (one pixel's is a single
-// chi-square draw, far too noisy to normalise distances by).
-void estimate_variances(Image& img) {
-    const int w = img.width, h = img.height;
-    std::vector<float> diff2(size_t(w) * size_t(h) * 3, 0.0f);
-    for (size_t i = 0; i < img.px.size(); ++i)
-        for (int c = 0; c < 3; ++c) {
-            const float d = img.px[i].a[c] - img.px[i].b[c];
-            diff2[3 * i + c] = img.px[i].valid ? d * d : 0.0f;
-        }
-    tbb::parallel_for(0, h, [&](int y) {
-        for (int x = 0; x < w; ++x) {
-            Pixel& p = img.px[size_t(y) * size_t(w) + size_t(x)];
-            if (!p.valid) continue;
-            float sum[3] = {0.0f, 0.0f, 0.0f};
-            int count = 0;
-            for (int yy = std::max(0, y - kVarianceRadius); yy <= std::min(h - 1, y + kVarianceRadius); ++yy)
-                for (int xx = std::max(0, x - kVarianceRadius); xx <= std::min(w - 1, x + kVarianceRadius); ++xx) {
-                    const size_t j = size_t(yy) * size_t(w) + size_t(xx);
-                    if (!img.px[j].valid) continue;
-                    for (int c = 0; c < 3; ++c) sum[c] += diff2[3 * j + c];
-                    ++count;
-                }
-            const float n = p.n_even + p.n_odd;
-            for (int c = 0; c < 3; ++c) {
-                const float mean = sum[c] / float(count);
-                p.va[c] = mean * p.n_odd / n;
-                p.vb[c] = mean * p.n_even / n;
-            }
-        }
-    });
 }
 
 // Fireflies. Cross-filtering cannot see an outlier of one half in the other
@@ -145,92 +129,124 @@ void estimate_variances(Image& img) {
 constexpr float kOutlierFactor = 6.0f;
 constexpr int kOutlierRadius = 2;
 
-inline float mean3(const float* v) { return (v[0] + v[1] + v[2]) * (1.0f / 3.0f); }
-
 void suppress_outliers(Image& img) {
     const int w = img.width, h = img.height;
-    const std::vector<Pixel> before = img.px;
+    const size_t size = size_t(w) * size_t(h);
+    std::vector<float> lum[2];
+    for (int half = 0; half < 2; ++half) {
+        const int g = half ? kB : kA;
+        lum[half].resize(size);
+        for (size_t i = 0; i < size; ++i)
+            lum[half][i] = (img.planes[g][i] + img.planes[g + 1][i] + img.planes[g + 2][i]) * (1.0f / 3.0f);
+    }
     tbb::parallel_for(0, h, [&](int y) {
         float values[2 * (2 * kOutlierRadius + 1) * (2 * kOutlierRadius + 1)];
         for (int x = 0; x < w; ++x) {
-            Pixel& p = img.px[size_t(y) * size_t(w) + size_t(x)];
-            if (!p.valid) continue;
+            const size_t i = size_t(y) * size_t(w) + size_t(x);
+            if (img.planes[kValid][i] == 0.0f) continue;
             int n = 0;
             for (int yy = std::max(0, y - kOutlierRadius); yy <= std::min(h - 1, y + kOutlierRadius); ++yy)
                 for (int xx = std::max(0, x - kOutlierRadius); xx <= std::min(w - 1, x + kOutlierRadius); ++xx) {
-                    const Pixel& q = before[size_t(yy) * size_t(w) + size_t(xx)];
-                    if (!q.valid) continue;
-                    values[n++] = mean3(q.a);
-                    values[n++] = mean3(q.b);
+                    const size_t j = size_t(yy) * size_t(w) + size_t(xx);
+                    if (img.planes[kValid][j] == 0.0f) continue;
+                    values[n++] = lum[0][j];
+                    values[n++] = lum[1][j];
                 }
             std::nth_element(values, values + (3 * n) / 4, values + n);
             const float limit = kOutlierFactor * values[(3 * n) / 4];
-            for (float* half : {p.a, p.b}) {
-                const float l = mean3(half);
-                if (l > limit)
-                    for (int c = 0; c < 3; ++c) half[c] *= limit / l;
+            for (int half = 0; half < 2; ++half) {
+                const float l = lum[half][i];
+                if (!(l > limit)) continue;
+                for (int c = 0; c < 3; ++c) img.planes[(half ? kB : kA) + c][i] *= limit / l;
             }
         }
     });
 }
 
-// Feature distance of p and q beyond their noise, in units of the tolerances.
-inline float feature_distance(const Pixel& p, const Pixel& q) {
-    float da = 0.0f, dn = 0.0f;
-    for (int c = 0; c < 3; ++c) {
-        const float a = p.albedo[c] - q.albedo[c], n = p.normal[c] - q.normal[c];
-        da += a * a;
-        dn += n * n;
-    }
-    const float va = p.albedo_var + q.albedo_var, vn = p.normal_var + q.normal_var;
-    return std::max(0.0f, da - va) / (kAlbedoSigma * kAlbedoSigma + va) +
-           std::max(0.0f, dn - vn) / (kNormalSigma * kNormalSigma + vn);
+// Each half's variance: Var[even mean] = E[(even - odd)^2] n_o / n, with
+// (even - odd)^2 averaged over a small box (one pixel's is a single
+// chi-square draw, far too noisy to normalise distances by).
+void estimate_variances(Image& img) {
+    const int w = img.width, h = img.height;
+    const size_t size = size_t(w) * size_t(h);
+    std::vector<float> diff2(3 * size);
+    for (int c = 0; c < 3; ++c)
+        for (size_t i = 0; i < size; ++i) {
+            const float d = img.planes[kA + c][i] - img.planes[kB + c][i];
+            diff2[size_t(c) * size + i] = d * d;  // 0 where invalid: both halves are 0 there
+        }
+    tbb::parallel_for(0, h, [&](int y) {
+        for (int x = 0; x < w; ++x) {
+            const size_t i = size_t(y) * size_t(w) + size_t(x);
+            if (img.planes[kValid][i] == 0.0f) continue;
+            float sum[3] = {0.0f, 0.0f, 0.0f}, count = 0.0f;
+            for (int yy = std::max(0, y - kVarianceRadius); yy <= std::min(h - 1, y + kVarianceRadius); ++yy)
+                for (int xx = std::max(0, x - kVarianceRadius); xx <= std::min(w - 1, x + kVarianceRadius); ++xx) {
+                    const size_t j = size_t(yy) * size_t(w) + size_t(xx);
+                    for (int c = 0; c < 3; ++c) sum[c] += diff2[size_t(c) * size + j];
+                    count += img.planes[kValid][j];
+                }
+            const float n = img.n_even[i] + img.n_odd[i];
+            for (int c = 0; c < 3; ++c) {
+                const float mean = sum[c] / count;
+                img.planes[kVarA + c][i] = mean * img.n_odd[i] / n;
+                img.planes[kVarB + c][i] = mean * img.n_even[i] / n;
+            }
+        }
+    });
 }
 
-// Colour distance of p and q in one guide half (means g, variances v).
-inline float colour_distance(const float* gp, const float* vp, const float* gq, const float* vq, float k2) {
-    float d = 0.0f;
-    for (int c = 0; c < 3; ++c) {
-        const float diff = gp[c] - gq[c], v = vp[c] + vq[c];
-        d += (diff * diff - v) / (kEpsilon + k2 * v);
-    }
-    return d * (1.0f / 3.0f);
-}
-
-// Per band: weighted sums of each half and of the weights.
+// Per band: weighted sums of each half and of the weights (planes of the
+// band's pixels: 3 + 3 + 1 + 1).
 struct BandSums {
-    std::vector<float> sum_a, sum_b, weight_a, weight_b;  // 3, 3, 1, 1 per pixel
+    std::vector<float> sum_a[3], sum_b[3], weight_a, weight_b;
 };
 
-// Patch-averaged colour distances of (p, p + (dx, dy)) for the pixels of rows
-// [y0, y1): dist_a (guide a, weights for filtering b) and dist_b.
+// Scratch of one band and offset: per-pixel colour distances of rows
+// [y0 - f, y1 + f) in both guides and how many pairs were valid, their
+// horizontal box sums, and the patch means of rows [y0, y1).
 struct PatchDistances {
-    std::vector<float> raw_a, raw_b, raw_n;  // per pixel of rows [y0 - f, y1 + f)
-    std::vector<float> row_a, row_b, row_n;  // horizontal box sums
-    std::vector<float> dist_a, dist_b;       // rows [y0, y1)
+    std::vector<float> raw_a, raw_b, raw_n, row_a, row_b, row_n, dist_a, dist_b;
 };
+
+// The colour distance of every pixel p of `row` to p + (dx, 0) of `row_q`
+// over x in [x0, x1), in guide `g` (planes g..g+2, variances v..v+2).
+void row_colour_distances(const Image& img, size_t row, size_t row_q, int x0, int x1, int dx, int g, int v, float k2,
+                          float* out) {
+    float* o = out;
+    for (int x = x0; x < x1; ++x) o[x] = 0.0f;
+    for (int c = 0; c < 3; ++c) {
+        const float* gp = img.plane(g + c) + row;
+        const float* gq = img.plane(g + c) + row_q + dx;
+        const float* vp = img.plane(v + c) + row;
+        const float* vq = img.plane(v + c) + row_q + dx;
+        for (int x = x0; x < x1; ++x) {
+            const float diff = gp[x] - gq[x], var = vp[x] + vq[x];
+            o[x] += (diff * diff - var) / (kEpsilon + k2 * var) * (1.0f / 3.0f);
+        }
+    }
+}
 
 void patch_distances(const Image& img, int y0, int y1, int dx, int dy, int f, float k2, PatchDistances& s) {
     const int w = img.width, h = img.height;
     const int r0 = std::max(0, y0 - f), r1 = std::min(h, y1 + f), rows = r1 - r0;
     const size_t n = size_t(rows) * size_t(w);
-    s.raw_a.assign(n, 0.0f), s.raw_b.assign(n, 0.0f), s.raw_n.assign(n, 0.0f);
+    for (auto* v : {&s.raw_a, &s.raw_b, &s.raw_n, &s.row_a, &s.row_b, &s.row_n}) v->assign(n, 0.0f);
+    const int x0 = std::max(0, -dx), x1 = std::min(w, w - dx);
+    const float* valid = img.plane(kValid);
     for (int y = r0; y < r1; ++y) {
         const int qy = y + dy;
         if (qy < 0 || qy >= h) continue;
-        for (int x = std::max(0, -dx); x < std::min(w, w - dx); ++x) {
-            const Pixel& p = img.at(x, y);
-            const Pixel& q = img.at(x + dx, qy);
-            if (!p.valid || !q.valid) continue;
-            const size_t i = size_t(y - r0) * size_t(w) + size_t(x);
-            s.raw_a[i] = colour_distance(p.a, p.va, q.a, q.va, k2);
-            s.raw_b[i] = colour_distance(p.b, p.vb, q.b, q.vb, k2);
-            s.raw_n[i] = 1.0f;
+        const size_t row = size_t(y) * size_t(w), row_q = size_t(qy) * size_t(w), base = size_t(y - r0) * size_t(w);
+        row_colour_distances(img, row, row_q, x0, x1, dx, kA, kVarA, k2, s.raw_a.data() + base);
+        row_colour_distances(img, row, row_q, x0, x1, dx, kB, kVarB, k2, s.raw_b.data() + base);
+        for (int x = x0; x < x1; ++x) {
+            const float both = valid[row + size_t(x)] * valid[row_q + size_t(x + dx)];
+            s.raw_a[base + size_t(x)] *= both, s.raw_b[base + size_t(x)] *= both, s.raw_n[base + size_t(x)] = both;
         }
     }
-    // Horizontal then vertical box sums (running sums), normalised by how
-    // many patch pixels had both ends in the image.
-    s.row_a.assign(n, 0.0f), s.row_b.assign(n, 0.0f), s.row_n.assign(n, 0.0f);
+    // Horizontal, then vertical box sums (running sums), normalised by how
+    // many patch pixels had both ends valid.
     for (int r = 0; r < rows; ++r) {
         const size_t base = size_t(r) * size_t(w);
         float ra = 0.0f, rb = 0.0f, rn = 0.0f;
@@ -244,43 +260,84 @@ void patch_distances(const Image& img, int y0, int y1, int dx, int dy, int f, fl
     }
     const size_t out = size_t(y1 - y0) * size_t(w);
     s.dist_a.assign(out, 0.0f), s.dist_b.assign(out, 0.0f);
+    std::vector<float>& count = s.raw_n;  // reused: raw_n is no longer needed
     for (int y = y0; y < y1; ++y) {
         const int lo = std::max(r0, y - f) - r0, hi = std::min(r1 - 1, y + f) - r0;
-        for (int x = 0; x < w; ++x) {
-            float a = 0.0f, b = 0.0f, cnt = 0.0f;
-            for (int r = lo; r <= hi; ++r) {
-                const size_t i = size_t(r) * size_t(w) + size_t(x);
-                a += s.row_a[i], b += s.row_b[i], cnt += s.row_n[i];
-            }
-            const size_t o = size_t(y - y0) * size_t(w) + size_t(x);
-            s.dist_a[o] = cnt > 0.0f ? a / cnt : 0.0f;
-            s.dist_b[o] = cnt > 0.0f ? b / cnt : 0.0f;
+        float* da = s.dist_a.data() + size_t(y - y0) * size_t(w);
+        float* db = s.dist_b.data() + size_t(y - y0) * size_t(w);
+        float* cnt = count.data();  // first row of scratch as the per-column count
+        for (int x = 0; x < w; ++x) cnt[x] = 0.0f;
+        for (int r = lo; r <= hi; ++r) {
+            const size_t base = size_t(r) * size_t(w);
+            for (int x = 0; x < w; ++x) da[x] += s.row_a[base + x], db[x] += s.row_b[base + x], cnt[x] += s.row_n[base + x];
         }
+        for (int x = 0; x < w; ++x) {
+            const float inv = cnt[x] > 0.0f ? 1.0f / cnt[x] : 0.0f;
+            da[x] *= inv, db[x] *= inv;
+        }
+    }
+}
+
+// The weights of pairs (p, p + (dx, dy)) over one row of `count` pixels,
+// pointers advanced to the first pair: wa filters half a (guided by b's
+// distance), wb half b. Plain restrict pointers, so that the loop vectorises.
+void row_weights(const Image& img, ptrdiff_t p, ptrdiff_t q, const float* __restrict dist_a,
+                 const float* __restrict dist_b, int count, float* __restrict wa, float* __restrict wb) {
+    constexpr float kAlbedo2 = kAlbedoSigma * kAlbedoSigma, kNormal2 = kNormalSigma * kNormalSigma;
+    float* __restrict feature = wb;  // wb holds the feature distance until the last loop
+    for (int x = 0; x < count; ++x) feature[x] = 0.0f;
+    for (int base : {int(kAlbedo), int(kNormal)}) {
+        float* __restrict d2 = wa;  // squared feature difference, summed over channels
+        for (int x = 0; x < count; ++x) d2[x] = 0.0f;
+        for (int c = 0; c < 3; ++c) {
+            const float* __restrict fp = img.plane(base + c) + p;
+            const float* __restrict fq = img.plane(base + c) + q;
+            for (int x = 0; x < count; ++x) d2[x] += (fp[x] - fq[x]) * (fp[x] - fq[x]);
+        }
+        // Beyond the features' own noise, in units of the tolerances.
+        const int var_plane = base == kAlbedo ? kAlbedoVar : kNormalVar;
+        const float tolerance = base == kAlbedo ? kAlbedo2 : kNormal2;
+        const float* __restrict vp = img.plane(var_plane) + p;
+        const float* __restrict vq = img.plane(var_plane) + q;
+        for (int x = 0; x < count; ++x) {
+            const float v = vp[x] + vq[x];
+            feature[x] += std::max(0.0f, d2[x] - v) / (tolerance + v);
+        }
+    }
+    const float* __restrict valid_p = img.plane(kValid) + p;
+    const float* __restrict valid_q = img.plane(kValid) + q;
+    for (int x = 0; x < count; ++x) {
+        const float both = valid_p[x] * valid_q[x], f = feature[x];
+        wa[x] = both * exp_negative(-(std::max(0.0f, dist_b[x]) + f));
+        wb[x] = both * exp_negative(-(std::max(0.0f, dist_a[x]) + f));
     }
 }
 
 // Adds offset (dx, dy)'s contributions to the band's sums: half a is
 // filtered with weights from guide b and vice versa.
-void accumulate_offset(const Image& img, int y0, int y1, int dx, int dy, const PatchDistances& s, BandSums& sums) {
+void accumulate_offset(const Image& img, int y0, int y1, int dx, int dy, const PatchDistances& s, BandSums& sums,
+                       std::vector<float>& wa, std::vector<float>& wb) {
     const int w = img.width, h = img.height;
+    const int x0 = std::max(0, -dx), x1 = std::min(w, w - dx), count = x1 - x0;
+    wa.resize(size_t(w)), wb.resize(size_t(w));
     for (int y = y0; y < y1; ++y) {
         const int qy = y + dy;
         if (qy < 0 || qy >= h) continue;
-        for (int x = std::max(0, -dx); x < std::min(w, w - dx); ++x) {
-            const Pixel& p = img.at(x, y);
-            const Pixel& q = img.at(x + dx, qy);
-            if (!p.valid || !q.valid) continue;
-            const size_t o = size_t(y - y0) * size_t(w) + size_t(x);
-            const float feature = feature_distance(p, q);
-            const float wa = std::exp(-(std::max(0.0f, s.dist_b[o]) + feature));  // filters a, guided by b
-            const float wb = std::exp(-(std::max(0.0f, s.dist_a[o]) + feature));
-            for (int c = 0; c < 3; ++c) {
-                sums.sum_a[3 * o + c] += wa * q.a[c];
-                sums.sum_b[3 * o + c] += wb * q.b[c];
-            }
-            sums.weight_a[o] += wa;
-            sums.weight_b[o] += wb;
+        // Row starts advanced to x0: the loops run over [0, count).
+        const ptrdiff_t p = ptrdiff_t(y) * w + x0, q = ptrdiff_t(qy) * w + dx + x0, o = ptrdiff_t(y - y0) * w + x0;
+        row_weights(img, p, q, s.dist_a.data() + o, s.dist_b.data() + o, count, wa.data(), wb.data());
+        const float* __restrict wa_row = wa.data();
+        const float* __restrict wb_row = wb.data();
+        for (int c = 0; c < 3; ++c) {
+            const float* __restrict a = img.plane(kA + c) + q;
+            const float* __restrict b = img.plane(kB + c) + q;
+            float* __restrict sa = sums.sum_a[c].data() + o;
+            float* __restrict sb = sums.sum_b[c].data() + o;
+            for (int x = 0; x < count; ++x) sa[x] += wa_row[x] * a[x], sb[x] += wb_row[x] * b[x];
         }
+        float* __restrict sum_wa = sums.weight_a.data() + o;
+        float* __restrict sum_wb = sums.weight_b.data() + o;
+        for (int x = 0; x < count; ++x) sum_wa[x] += wa_row[x], sum_wb[x] += wb_row[x];
     }
 }
 
@@ -289,20 +346,24 @@ void filter_band(const Image& img, const DenoiseOptions& o, int y0, int y1, floa
     const int w = img.width, r = std::max(0, o.window_radius), f = std::max(0, o.patch_radius);
     const float k = kColourK * std::max(0.0f, o.strength);
     const size_t n = size_t(y1 - y0) * size_t(w);
-    BandSums sums{std::vector<float>(3 * n, 0.0f), std::vector<float>(3 * n, 0.0f), std::vector<float>(n, 0.0f),
-                  std::vector<float>(n, 0.0f)};
+    BandSums sums;
+    for (int c = 0; c < 3; ++c) sums.sum_a[c].assign(n, 0.0f), sums.sum_b[c].assign(n, 0.0f);
+    sums.weight_a.assign(n, 0.0f), sums.weight_b.assign(n, 0.0f);
     PatchDistances scratch;
+    std::vector<float> wa, wb;
     for (int dy = -r; dy <= r; ++dy)
         for (int dx = -r; dx <= r; ++dx) {
             patch_distances(img, y0, y1, dx, dy, f, k * k, scratch);
-            accumulate_offset(img, y0, y1, dx, dy, scratch, sums);
+            accumulate_offset(img, y0, y1, dx, dy, scratch, sums, wa, wb);
         }
+    const size_t first = size_t(y0) * size_t(w);
     for (size_t i = 0; i < n; ++i) {
-        const Pixel& p = img.px[size_t(y0) * size_t(w) + i];
+        const bool valid = img.planes[kValid][first + i] != 0.0f;
         for (int c = 0; c < 3; ++c) {
             // The centre pixel always weighs 1 (distance <= 0): no division by 0.
-            out_a[3 * i + c] = p.valid ? sums.sum_a[3 * i + c] / sums.weight_a[i] * p.modulation[c] : 0.0f;
-            out_b[3 * i + c] = p.valid ? sums.sum_b[3 * i + c] / sums.weight_b[i] * p.modulation[c] : 0.0f;
+            const float m = img.modulation[3 * (first + i) + size_t(c)];
+            out_a[3 * i + c] = valid ? sums.sum_a[c][i] / sums.weight_a[i] * m : 0.0f;
+            out_b[3 * i + c] = valid ? sums.sum_b[c][i] / sums.weight_b[i] * m : 0.0f;
         }
     }
 }
@@ -312,20 +373,20 @@ DenoiseResult combine(const Image& img, const std::vector<float>& fa, const std:
     DenoiseResult r;
     r.rgb.assign(fa.size(), 0.0f);
     double err2 = 0.0, mean = 0.0;
-    for (size_t i = 0; i < img.px.size(); ++i) {
-        const Pixel& p = img.px[i];
-        if (!p.valid) continue;
-        const double n = double(p.n_even) + double(p.n_odd);
-        const double scale = double(p.n_even) * double(p.n_odd) / (n * n);
+    const size_t size = size_t(img.width) * size_t(img.height);
+    for (size_t i = 0; i < size; ++i) {
+        if (img.planes[kValid][i] == 0.0f) continue;
+        const double ne = img.n_even[i], no = img.n_odd[i], n = ne + no;
+        const double scale = ne * no / (n * n);
         for (int c = 0; c < 3; ++c) {
             const double a = fa[3 * i + c], b = fb[3 * i + c];
-            const double v = (double(p.n_even) * a + double(p.n_odd) * b) / n;
+            const double v = (ne * a + no * b) / n;
             r.rgb[3 * i + c] = std::isfinite(v) ? float(v) : 0.0f;
             err2 += (a - b) * (a - b) * scale;
             mean += v;
         }
     }
-    const double count = 3.0 * double(img.px.size());
+    const double count = 3.0 * double(size);
     mean /= count;
     r.error_estimate = mean > 0.0 ? std::sqrt(err2 / count) / mean : 0.0;
     if (!std::isfinite(r.error_estimate)) r.error_estimate = -1.0;
@@ -337,15 +398,18 @@ DenoiseResult combine(const Image& img, const std::vector<float>& fa, const std:
 DenoiseResult denoise(const Film& film, const DenoiseOptions& options, const DenoiseProgress& progress) {
     Image img;
     img.width = film.width(), img.height = film.height();
-    img.px.resize(size_t(img.width) * size_t(img.height));
+    const size_t size = size_t(img.width) * size_t(img.height);
+    if (size == 0) return {{}, 0.0};
+    for (std::vector<float>& p : img.planes) p.assign(size, 0.0f);
+    img.modulation.assign(3 * size, 1.0f);
+    img.n_even.assign(size, 0.0f), img.n_odd.assign(size, 0.0f);
     const Film::Sums sums = film.sums();
-    for (size_t i = 0; i < img.px.size(); ++i)
-        if (!read_pixel(sums, i, img.px[i])) return {};  // fewer than 2 passes: no halves to cross-filter
-    if (img.px.empty()) return {{}, 0.0};
+    for (size_t i = 0; i < size; ++i)
+        if (!read_pixel(sums, i, img)) return {};  // fewer than 2 passes: no halves to cross-filter
 
     tbb::task_arena arena(options.threads > 0 ? options.threads : tbb::task_arena::automatic);
     const int bands = (img.height + kBandRows - 1) / kBandRows;
-    std::vector<float> fa(3 * img.px.size()), fb(3 * img.px.size());
+    std::vector<float> fa(3 * size), fb(3 * size);
     std::atomic<int> bands_done{0};
     std::atomic<bool> cancelled{false};
     const auto caller = std::this_thread::get_id();
