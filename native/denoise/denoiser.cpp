@@ -14,10 +14,10 @@
 
 #include <algorithm>
 #include <atomic>
+#include <bit>
 #include <chrono>
 #include <cmath>
 #include <cstdint>
-#include <bit>
 #include <thread>
 
 namespace coherent {
@@ -342,7 +342,10 @@ void accumulate_offset(const Image& img, int y0, int y1, int dx, int dy, const P
 }
 
 // Filtered halves of the band's pixels, remodulated: 3 floats a pixel each.
-void filter_band(const Image& img, const DenoiseOptions& o, int y0, int y1, float* out_a, float* out_b) {
+// Returns early (output incomplete) once `cancelled` is set: checked per
+// window row, so cancelling is prompt at any image width.
+void filter_band(const Image& img, const DenoiseOptions& o, int y0, int y1, const std::atomic<bool>& cancelled,
+                 float* out_a, float* out_b) {
     const int w = img.width, r = std::max(0, o.window_radius), f = std::max(0, o.patch_radius);
     const float k = kColourK * std::max(0.0f, o.strength);
     const size_t n = size_t(y1 - y0) * size_t(w);
@@ -351,11 +354,14 @@ void filter_band(const Image& img, const DenoiseOptions& o, int y0, int y1, floa
     sums.weight_a.assign(n, 0.0f), sums.weight_b.assign(n, 0.0f);
     PatchDistances scratch;
     std::vector<float> wa, wb;
-    for (int dy = -r; dy <= r; ++dy)
+    for (int dy = -r; dy <= r; ++dy) {
+        if (cancelled.load(std::memory_order_relaxed) || (o.cancel && o.cancel->load(std::memory_order_relaxed)))
+            return;
         for (int dx = -r; dx <= r; ++dx) {
             patch_distances(img, y0, y1, dx, dy, f, k * k, scratch);
             accumulate_offset(img, y0, y1, dx, dy, scratch, sums, wa, wb);
         }
+    }
     const size_t first = size_t(y0) * size_t(w);
     for (size_t i = 0; i < n; ++i) {
         const bool valid = img.planes[kValid][first + i] != 0.0f;
@@ -422,18 +428,19 @@ DenoiseResult denoise(const Film& film, const DenoiseOptions& options, const Den
                 if (cancelled.load(std::memory_order_relaxed)) return;
                 const int y0 = band * kBandRows, y1 = std::min(img.height, y0 + kBandRows);
                 const size_t first = 3 * size_t(y0) * size_t(img.width);
-                filter_band(img, options, y0, y1, fa.data() + first, fb.data() + first);
+                filter_band(img, options, y0, y1, cancelled, fa.data() + first, fb.data() + first);
                 const int done = bands_done.fetch_add(1) + 1;
                 // Reports only from the calling thread (it takes part in the loop).
                 const auto now = std::chrono::steady_clock::now();
-                if (progress && std::this_thread::get_id() == caller && now - last_report > std::chrono::milliseconds(100)) {
+                if (progress && std::this_thread::get_id() == caller &&
+                    now - last_report > std::chrono::milliseconds(100)) {
                     last_report = now;
                     if (!progress(double(done) / double(bands))) cancelled.store(true);
                 }
             }
         });
     });
-    if (cancelled.load() || (progress && !progress(1.0))) return {};
+    if (cancelled.load() || (options.cancel && options.cancel->load()) || (progress && !progress(1.0))) return {};
     return combine(img, fa, fb);
 }
 

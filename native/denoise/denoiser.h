@@ -27,6 +27,7 @@
 //      bound in spirit, measured against references in tests/.
 #pragma once
 
+#include <atomic>
 #include <functional>
 #include <vector>
 
@@ -40,6 +41,9 @@ struct DenoiseOptions {
     int window_radius = 8;  // search window (2r+1)^2
     int patch_radius = 3;   // patch (2f+1)^2 of the colour distance
     int threads = 0;        // 0 = all cores
+    // Polled while filtering (null: none): once set, denoise() stops within
+    // a fraction of a second and returns an empty result.
+    const std::atomic<bool>* cancel = nullptr;
 };
 
 struct DenoiseResult {

@@ -472,6 +472,7 @@ void Renderer::denoise_film(const std::function<bool(double)>& report) {
     DenoiseOptions options;
     options.strength = settings_.denoise_strength;
     options.threads = settings_.threads;
+    options.cancel = &cancelled_;
     DenoiseResult result = denoise(film_, options, [&](double f) {
         if (!report(f)) cancel();
         return !cancelled();

@@ -7,6 +7,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <cstdio>
 #include <random>
@@ -166,6 +167,13 @@ TEST(Denoise, CancelledByProgress) {
     });
     EXPECT_TRUE(d.rgb.empty());
     EXPECT_GE(calls, 1);
+}
+
+TEST(Denoise, CancelledByFlag) {
+    const std::atomic<bool> stop{true};
+    DenoiseOptions options;
+    options.cancel = &stop;
+    EXPECT_TRUE(denoise(noisy_film(4, 6), options).rgb.empty());
 }
 
 // --- inside the renderer -------------------------------------------------------
