@@ -37,6 +37,10 @@ _PASSES = {
     # Diagnostic heatmaps (scene.coherent.use_pass_bvh_visits / use_pass_simd_utilisation).
     "BVH Visits": ("X", "VALUE"),
     "SIMD Utilisation": ("X", "VALUE"),
+    # Denoising (Cycles' names): the feature buffers, and Combined as rendered.
+    "Denoising Albedo": ("RGB", "COLOR"),
+    "Denoising Normal": ("XYZ", "VECTOR"),
+    "Noisy Image": ("RGBA", "COLOR"),
 }
 
 # Integrator and traversal as the Info report names them.
@@ -238,6 +242,13 @@ class CoherentRenderEngine(bpy.types.RenderEngine):
             self.register_pass(scene, renderlayer, "BVH Visits", 1, "X", "VALUE")
         if scene is not None and scene.coherent.use_pass_simd_utilisation:
             self.register_pass(scene, renderlayer, "SIMD Utilisation", 1, "X", "VALUE")
+        # Denoising: Combined is denoised; the noisy image and, on request,
+        # the features the denoiser used stay available.
+        if scene is not None and scene.coherent.use_pass_denoising_data:
+            self.register_pass(scene, renderlayer, "Denoising Albedo", 3, "RGB", "COLOR")
+            self.register_pass(scene, renderlayer, "Denoising Normal", 3, "XYZ", "VECTOR")
+        if scene is not None and scene.coherent.use_denoising:
+            self.register_pass(scene, renderlayer, "Noisy Image", 4, "RGBA", "COLOR")
 
     # -- final render -------------------------------------------------------------
 
@@ -305,7 +316,7 @@ class CoherentRenderEngine(bpy.types.RenderEngine):
             nscene, width=width, height=height, spp=props.samples,
             seed=props.seed_for_frame(scene.frame_current), border=border,
             progressive_display=False, target_error=props.target_error, time_limit=props.time_limit,
-            **props.renderer_kwargs(scene))
+            denoise=props.use_denoising, **props.renderer_kwargs(scene))
         build_seconds = time.perf_counter() - build_start
         self._renderer = renderer
 
@@ -339,6 +350,11 @@ class CoherentRenderEngine(bpy.types.RenderEngine):
         memory = memory_summary(stats["memory"])
         print(memory)
         self.report({"INFO"}, memory)
+        if stats["denoised_error_estimate"] is not None:
+            denoised = (f"Coherent: denoised in {stats['denoise_seconds']:.2f} s, estimated error "
+                        f"{_format_error(stats['error_estimate'])} -> {_format_error(stats['denoised_error_estimate'])}")
+            print(denoised)
+            self.report({"INFO"}, denoised)
         tracing = tracing_summary(renderer.settings, stats)
         print(tracing)
         self.report({"INFO"}, tracing)
@@ -366,6 +382,9 @@ class CoherentRenderEngine(bpy.types.RenderEngine):
 
         def progress(p):
             done, total, seconds = p["samples_done"], p["samples_total"], p["seconds"]
+            if p["denoise_fraction"] is not None:  # after the last pass
+                self.update_stats("", f"Sample {done}/{total} | Denoising {100.0 * p['denoise_fraction']:.0f} %")
+                return not self.test_break()
             fraction = p["fraction"]
             self.update_progress(fraction)
             remaining = seconds * (1.0 - fraction) / fraction if fraction > 0.0 else 0.0

@@ -51,10 +51,18 @@ TABLE_PROPERTIES = {
     "threads": ("threads", dict(description="Render threads; 0 uses Blender's Performance > Threads setting "
                                             "(all cores when set to Auto-Detect)")),
     "tile_size": ("tile_size", {}),
+    # Denoising, as Cycles' Sampling > Denoise: Render and Viewport.
+    "use_denoising": ("denoise", dict(name="Render", description="Denoise final renders with the native "
+                                                                 "feature-guided, cross-validated filter; the "
+                                                                 "noisy image stays in the 'Noisy Image' pass")),
+    "use_preview_denoising": ("denoise", dict(name="Viewport", description="Denoise the viewport's image at "
+                                                                          "2, 4, 8, ... samples and when done")),
+    "denoising_strength": ("denoise_strength", dict(name="Strength")),
+    "use_pass_denoising_data": ("denoising_data", {}),
 }
-# Set by renderer_kwargs' callers: samples and seed differ between final
-# render and viewport, and the stopping rules apply to final renders only.
-FRONT_END_ROWS = {"spp", "seed", "target_error", "time_limit"}
+# Set by renderer_kwargs' callers: samples, seed and denoising differ between
+# final render and viewport, and the stopping rules apply to final renders only.
+FRONT_END_ROWS = {"spp", "seed", "target_error", "time_limit", "denoise"}
 
 INT32_MAX = (1 << 31) - 1
 

@@ -88,6 +88,24 @@ class RENDER_PT_coherent_adaptive(CoherentButtonsPanel, bpy.types.Panel):
         col.prop(props, "adaptive_min_samples", text="Min Samples")
 
 
+class RENDER_PT_coherent_denoising(CoherentButtonsPanel, bpy.types.Panel):
+    bl_label = "Denoising"
+    bl_context = "render"
+    bl_parent_id = "RENDER_PT_coherent_sampling"
+
+    def draw(self, context):
+        layout = self.layout
+        layout.use_property_split = True
+        layout.use_property_decorate = False
+        props = context.scene.coherent
+        col = layout.column(heading="Denoise", align=True)
+        col.prop(props, "use_denoising")
+        col.prop(props, "use_preview_denoising")
+        sub = layout.column()
+        sub.active = props.use_denoising or props.use_preview_denoising
+        sub.prop(props, "denoising_strength")
+
+
 class RENDER_PT_coherent_quality_cost(CoherentButtonsPanel, bpy.types.Panel):
     """What reaching each error level costs, per sampler (operators.py estimates it)."""
     bl_label = "Quality Cost"
@@ -284,6 +302,7 @@ class VIEWLAYER_PT_coherent_passes(CoherentButtonsPanel, bpy.types.Panel):
         col.prop(view_layer, "use_pass_z")
         col.prop(view_layer, "use_pass_normal")
         col.prop(context.scene.coherent, "use_pass_error")
+        col.prop(context.scene.coherent, "use_pass_denoising_data")
         col = layout.column(heading="Diagnostics", align=True)
         col.prop(context.scene.coherent, "use_pass_bvh_visits")
         col.prop(context.scene.coherent, "use_pass_simd_utilisation")
@@ -292,6 +311,7 @@ class VIEWLAYER_PT_coherent_passes(CoherentButtonsPanel, bpy.types.Panel):
 classes = (
     RENDER_PT_coherent_sampling,
     RENDER_PT_coherent_adaptive,
+    RENDER_PT_coherent_denoising,
     RENDER_PT_coherent_quality_cost,
     RENDER_PT_coherent_tracing,
     RENDER_PT_coherent_light_paths,

@@ -161,11 +161,13 @@ class ViewportSession:
         """Everything a restart depends on: a draw with another key restarts the render."""
         props = scene.coherent
         # Every setting the Renderer gets (integrator, traversal, sampler, ...)
-        # restarts the view when changed; heatmaps are off in the viewport.
+        # restarts the view when changed; heatmaps and the denoising data
+        # passes are off in the viewport.
         kwargs = props.renderer_kwargs(scene)
         kwargs.pop("heatmaps", None)
+        kwargs.pop("denoising_data", None)
         return (self.sync.scene_version, width, height, tuple(sorted(camera.items())), props.preview_samples,
-                props.seed, tuple(sorted(kwargs.items())))
+                props.seed, props.use_preview_denoising, tuple(sorted(kwargs.items())))
 
     def _show_latest_pass(self, wait=0.0):
         if self.display.upload(self.render, wait):

@@ -102,7 +102,9 @@ class ProgressiveRender:
         kwargs = props.renderer_kwargs(scene)
         kwargs.update(width=max(1, math.ceil(self.width / divisor)), height=max(1, math.ceil(self.height / divisor)),
                       spp=samples, seed=props.seed, progressive_display=True,
-                      heatmaps=False)  # the viewport draws Combined only: no counters to pay for
+                      # The viewport draws Combined only: no counters or feature passes to pay for,
+                      # unless it is denoised.
+                      heatmaps=False, denoising_data=False, denoise=props.use_preview_denoising)
         sync.ensure_bvh()
         self.renderer = native.Renderer(sync.scene, **kwargs)
         self.renderer.start()

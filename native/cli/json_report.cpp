@@ -69,6 +69,14 @@ std::string render_report_json(const RenderReport& r) {
         j["error_estimate"] = r.stats.error_estimate;
     else
         j["error_estimate"] = nullptr;
+    // Denoising (--denoise): the denoised image's estimate from its filtered
+    // halves, next to the noisy one above, and the denoiser's seconds
+    // (included in "seconds"); null when not denoised.
+    if (r.stats.denoised_error_estimate >= 0.0)
+        j["denoised"] = {{"error_estimate", r.stats.denoised_error_estimate},
+                         {"seconds", r.stats.denoise_seconds}};
+    else
+        j["denoised"] = nullptr;
     // Adaptive sampling's outcome: null when off.
     if (r.settings.adaptive)
         j["adaptive"] = {{"converged_pixels", r.stats.converged_pixels},

@@ -56,6 +56,12 @@ void ProgressBar::update(const Progress& p) {
             std::snprintf(error + n, sizeof(error) - size_t(n), " -> %.2f %% in ~%s", 100.0 * target_error_,
                           format_duration(std::max(0.0, t_target - p.seconds)).c_str());
     }
+    if (p.denoise_fraction >= 0.0) {
+        std::fprintf(stderr, "\r[%s] %3d%%  %d/%d spp%s  denoising %3d%%\033[K", bar.c_str(), int(fraction * 100.0),
+                     p.samples_done, p.samples_total, error, int(p.denoise_fraction * 100.0));
+        std::fflush(stderr);
+        return;
+    }
     std::fprintf(stderr, "\r[%s] %3d%%  %d/%d spp%s  %.1f Mrays/s  ETA %s\033[K", bar.c_str(),
                  int(fraction * 100.0), p.samples_done, p.samples_total, error, mrays, format_duration(eta).c_str());
     std::fflush(stderr);

@@ -148,6 +148,9 @@ int render(const RenderOptions& options) {
         std::printf("coherent: wrote %s (%dx%d, %d spp, %.3f s, %.2f Mrays/s", options.output.c_str(),
                     settings.width, settings.height, report.stats.spp, render_seconds, mrays);
         if (report.stats.error_estimate >= 0.0) std::printf(", error %.2f %%", 100.0 * report.stats.error_estimate);
+        if (report.stats.denoised_error_estimate >= 0.0)
+            std::printf(", denoised in %.3f s: error %.2f %%", report.stats.denoise_seconds,
+                        100.0 * report.stats.denoised_error_estimate);
         std::printf(", %s, %s", std::string(integrator_name(settings.integrator)).c_str(),
                     std::string(traversal_name(renderer.settings().traversal)).c_str());
         uint64_t lanes = 0, active = 0;

@@ -18,6 +18,9 @@ const PassInfo& pass_info(PassType t) {
         {PassType::Error, "Error", 1, "X"},
         {PassType::NodeVisits, "BVH Visits", 1, "X"},
         {PassType::SimdUtilisation, "SIMD Utilisation", 1, "X"},
+        {PassType::DenoisingAlbedo, "Denoising Albedo", 3, "RGB"},
+        {PassType::DenoisingNormal, "Denoising Normal", 3, "XYZ"},
+        {PassType::NoisyImage, "Noisy Image", 4, "RGBA"},
     };
     return infos[size_t(t)];
 }
@@ -35,6 +38,46 @@ void Film::clear() {
     count_odd_.assign(n, 0);
     heat_.clear();
     heat_count_.clear();
+    const bool features = has_denoising_features();
+    albedo_.clear(), albedo_odd_.clear(), dnormal_.clear(), dnormal_odd_.clear();
+    if (features) enable_denoising_features();
+    denoised_.clear();
+}
+
+void Film::enable_denoising_features() {
+    const size_t n = size_t(width_) * size_t(height_);
+    if (albedo_.size() == 3 * n && n > 0) return;
+    for (std::vector<float>* b : {&albedo_, &albedo_odd_, &dnormal_, &dnormal_odd_}) b->assign(3 * n, 0.0f);
+}
+
+void Film::add_denoising_features(int x, int y, const Vec3f& albedo, const Vec3f& normal, uint32_t sample) {
+    const size_t i = 3 * (size_t(y) * size_t(width_) + size_t(x));
+    const float a[3] = {albedo.x, albedo.y, albedo.z}, nv[3] = {normal.x, normal.y, normal.z};
+    for (int c = 0; c < 3; ++c) {
+        albedo_[i + c] += a[c];
+        dnormal_[i + c] += nv[c];
+    }
+    if (sample & 1u)
+        for (int c = 0; c < 3; ++c) {
+            albedo_odd_[i + c] += a[c];
+            dnormal_odd_[i + c] += nv[c];
+        }
+}
+
+Film::Sums Film::sums() const {
+    const bool f = has_denoising_features();
+    return {rgba_.data(),
+            rgb_odd_.data(),
+            count_.data(),
+            count_odd_.data(),
+            f ? albedo_.data() : nullptr,
+            f ? albedo_odd_.data() : nullptr,
+            f ? dnormal_.data() : nullptr,
+            f ? dnormal_odd_.data() : nullptr};
+}
+
+void Film::set_denoised(std::vector<float> rgb) {
+    if (rgb.size() == 3 * size_t(width_) * size_t(height_)) denoised_ = std::move(rgb);
 }
 
 void Film::enable_heatmaps() {
@@ -134,7 +177,18 @@ void Film::resolve_into(PassType t, float* out) const {
         switch (t) {
             case PassType::Combined:
                 for (int c = 0; c < 4; ++c) out[4 * i + c] = rgba_[4 * i + c] * inv;
+                if (!denoised_.empty())
+                    for (int c = 0; c < 3; ++c) out[4 * i + c] = denoised_[3 * i + c];
                 break;
+            case PassType::NoisyImage:
+                for (int c = 0; c < 4; ++c) out[4 * i + c] = rgba_[4 * i + c] * inv;
+                break;
+            case PassType::DenoisingAlbedo:
+            case PassType::DenoisingNormal: {
+                const std::vector<float>& b = t == PassType::DenoisingAlbedo ? albedo_ : dnormal_;
+                for (int c = 0; c < 3; ++c) out[3 * i + c] = b.empty() ? 0.0f : b[3 * i + c] * inv;
+                break;
+            }
             case PassType::Depth:
                 out[i] = hits_[i] ? depth_[i] / float(hits_[i]) : kNoHitDepth;
                 break;

@@ -15,7 +15,22 @@ namespace coherent {
 // (RenderSettings::heatmaps): BVH node visits per camera sample (all rays of
 // the sample's path), and the mean SIMD lane utilisation, in [0, 1], of the
 // packets that traced the pixel's rays (1 for single rays, which waste no lane).
-enum class PassType : uint8_t { Combined, Depth, Normal, Error, NodeVisits, SimdUtilisation };
+//
+// Denoising (Cycles' names): DenoisingAlbedo and DenoisingNormal are the
+// feature buffers of denoise/denoising_features.h (zero unless enabled);
+// NoisyImage is Combined as rendered. Combined itself is the denoised image
+// once set_denoised() was called, and NoisyImage otherwise.
+enum class PassType : uint8_t {
+    Combined,
+    Depth,
+    Normal,
+    Error,
+    NodeVisits,
+    SimdUtilisation,
+    DenoisingAlbedo,
+    DenoisingNormal,
+    NoisyImage
+};
 
 struct PassInfo {
     PassType type;
@@ -83,6 +98,34 @@ public:
     void enable_heatmaps();
     void add_heatmap_sample(int x, int y, float node_visits, float simd_utilisation);
 
+    // Denoising features: enable_denoising_features() allocates them (before
+    // rendering, like the heatmaps); add_denoising_features() adds one
+    // sample's albedo and camera-space normal, the odd passes also to an odd
+    // half (the denoiser weighs feature differences against their noise).
+    void enable_denoising_features();
+    bool has_denoising_features() const { return !albedo_.empty(); }
+    void add_denoising_features(int x, int y, const Vec3f& albedo, const Vec3f& normal, uint32_t sample);
+
+    // The accumulation buffers as the denoiser reads them: per pixel i,
+    // sums over all samples and over the odd passes' samples (rgba: 4 floats
+    // a pixel, the others 3; albedo/normal null without features).
+    struct Sums {
+        const float* rgba;
+        const float* rgb_odd;
+        const uint32_t* count;
+        const uint32_t* count_odd;
+        const float* albedo;
+        const float* albedo_odd;
+        const float* normal;
+        const float* normal_odd;
+    };
+    Sums sums() const;
+
+    // The denoised Combined RGB (3 floats a pixel, top row first), which
+    // Combined resolves to from now on; clear() drops it.
+    void set_denoised(std::vector<float> rgb);
+    bool denoised() const { return !denoised_.empty(); }
+
     void clear();
 
 private:
@@ -96,6 +139,9 @@ private:
     std::vector<uint32_t> count_odd_;  // odd-pass samples per pixel
     std::vector<float> heat_;     // 2 per pixel: sums of node visits, SIMD utilisation
     std::vector<uint32_t> heat_count_;  // heatmap samples per pixel
+    // Denoising features, sums (3 per pixel); empty unless enabled.
+    std::vector<float> albedo_, albedo_odd_, dnormal_, dnormal_odd_;
+    std::vector<float> denoised_;  // 3 per pixel; empty until set_denoised()
 };
 
 }  // namespace coherent

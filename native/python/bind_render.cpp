@@ -16,6 +16,7 @@
 #include "bind_settings.h"
 #include "bindings.h"
 #include "render/memory_budget.h"
+#include "denoise/denoiser.h"
 #include "render/renderer.h"
 
 namespace coherent::python {
@@ -26,15 +27,17 @@ namespace {
 // the film stores +inf there, which the compositor cannot handle.
 constexpr float kBlenderNoDepth = 1e10f;
 
-constexpr PassType kPassTypes[] = {PassType::Combined, PassType::Depth,      PassType::Normal,
-                                   PassType::Error,    PassType::NodeVisits, PassType::SimdUtilisation};
+constexpr PassType kPassTypes[] = {PassType::Combined,        PassType::Depth,           PassType::Normal,
+                                   PassType::Error,           PassType::NodeVisits,      PassType::SimdUtilisation,
+                                   PassType::DenoisingAlbedo, PassType::DenoisingNormal, PassType::NoisyImage};
 
 PassType pass_from_name(const std::string& name) {
     for (PassType t : kPassTypes)
         if (name == pass_info(t).name) return t;
     if (name == "Z") return PassType::Depth;  // Blender < 2.92 name of the depth pass
     throw py::value_error("pass_pixels: unknown pass '" + name +
-                          "' (expected 'Combined', 'Depth', 'Normal', 'Error', 'BVH Visits' or 'SIMD Utilisation')");
+                          "' (expected 'Combined', 'Depth', 'Normal', 'Error', 'BVH Visits', 'SIMD Utilisation', "
+                          "'Denoising Albedo', 'Denoising Normal' or 'Noisy Image')");
 }
 
 // A ratio, or None when the denominator is 0 (nothing measured is not a measured 0).
@@ -196,12 +199,7 @@ public:
                     // end of a pass: the only moment the film may be read.
                     if (p.samples_done != last_done) {
                         last_done = p.samples_done;
-                        const Film& film = renderer_->film();
-                        std::vector<float> pixels(size_t(film.width()) * film.height() * 4);
-                        film.resolve_into(PassType::Combined, pixels.data());
-                        std::lock_guard<std::mutex> lock(async_mutex_);
-                        snapshot_.swap(pixels);
-                        snapshot_samples_ = p.samples_done;
+                        take_snapshot(p.samples_done);
                     }
                     std::lock_guard<std::mutex> lock(async_mutex_);
                     async_progress_ = p;
@@ -209,6 +207,8 @@ public:
                     async_rays_ = p.stats ? p.stats->total_rays() : 0;
                     return true;  // cancellation goes through Renderer::cancel()
                 });
+                // The denoised film (settings.denoise): the final snapshot.
+                if (renderer_->film().denoised()) take_snapshot(renderer_->stats().spp, false);
             } catch (const std::exception& e) {
                 std::lock_guard<std::mutex> lock(async_mutex_);
                 async_error_ = e.what();
@@ -312,6 +312,8 @@ private:
         d["fraction"] = p.fraction;
         d["seconds"] = p.seconds;
         d["error_estimate"] = error_estimate_object(p.error_estimate);
+        // While denoising after the last pass: its progress in [0, 1], else None.
+        d["denoise_fraction"] = p.denoise_fraction >= 0.0 ? py::object(py::float_(p.denoise_fraction)) : py::none();
         const uint64_t rays = p.stats ? p.stats->total_rays() : 0;
         d["rays"] = rays;
         d["mrays_per_s"] = p.seconds > 0.0 ? double(rays) / p.seconds * 1e-6 : 0.0;
@@ -329,6 +331,9 @@ private:
         d["converged_pixels"] = s.converged_pixels;
         d["converged_fraction"] = s.converged_fraction();
         d["error_estimate"] = error_estimate_object(s.error_estimate);
+        // Denoising: the denoised image's estimate (None when not denoised).
+        d["denoised_error_estimate"] = error_estimate_object(s.denoised_error_estimate);
+        d["denoise_seconds"] = s.denoise_seconds;
         d["seconds"] = s.seconds;
         d["mrays_per_s"] = s.seconds > 0.0 ? double(s.total_rays()) / s.seconds * 1e-6 : 0.0;
         d["nonfinite_samples"] = s.nonfinite_samples;
@@ -357,6 +362,32 @@ private:
         d["memory"] = memory_dict(s.memory);
         return d;
     }
+
+    // Resolves Combined into the snapshot buffer (on the worker thread, at
+    // the end of a pass: the only moment the film may be read). With
+    // denoising on, the viewport sees a denoised image at pass 2, 4, 8, ...
+    // (a cheaper filter: smaller window); the final one comes from the
+    // Renderer's own denoiser after the last pass.
+    void take_snapshot(int samples_done, bool between_passes = true) {
+        const Film& film = renderer_->film();
+        std::vector<float> pixels(size_t(film.width()) * film.height() * 4);
+        film.resolve_into(PassType::Combined, pixels.data());
+        const bool power_of_two = samples_done >= 2 && (samples_done & (samples_done - 1)) == 0;
+        if (between_passes && settings_.denoise && power_of_two && samples_done < settings_.spp) {
+            DenoiseOptions options;
+            options.strength = settings_.denoise_strength;
+            options.threads = settings_.threads;
+            options.window_radius = kViewportWindowRadius;
+            const DenoiseResult d = denoise(film, options, [this](double) { return !renderer_->cancelled(); });
+            for (size_t i = 0; i < d.rgb.size() / 3; ++i)
+                for (int c = 0; c < 3; ++c) pixels[4 * i + c] = d.rgb[3 * i + c];
+        }
+        std::lock_guard<std::mutex> lock(async_mutex_);
+        snapshot_.swap(pixels);
+        snapshot_samples_ = samples_done;
+    }
+    // A 11 x 11 window: ~2.4x cheaper than the final render's 17 x 17.
+    static constexpr int kViewportWindowRadius = 5;
 
     // A finished start() leaves a joinable thread behind; reap it.
     void join_finished_worker() {

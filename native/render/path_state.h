@@ -34,6 +34,7 @@
 #include "../accel/instance_bvh.h"
 #include "../accel/motion_bvh.h"
 #include "../core/inline.h"
+#include "../denoise/denoising_features.h"
 #include "../sample/image_sampler.h"
 #include "../scene/scene.h"
 #include "../shader/eval.h"
@@ -59,6 +60,9 @@ struct PathOutput {
     float alpha = 1.0f;
     float depth = kInf;  // view-axis distance of the first hit, inf if none
     Vec3f normal{0.0f};  // shading normal at the first hit (facing the camera)
+    // Denoising features (denoise/denoising_features.h); 0 unless requested.
+    Vec3f albedo{0.0f};
+    Vec3f denoising_normal{0.0f};
 };
 
 struct PathContext {
@@ -105,6 +109,7 @@ struct PathState {
     // Motion blur: the shutter time, in [0, 1), at which this path sees the
     // scene (every ray of a path, as in distribution ray tracing).
     float time = 0.0f;
+    DenoisingFeatureState features;
 
     PathOutput out;
 };
@@ -172,6 +177,7 @@ inline void start_path(const PathContext& ctx, const PathSampler& ps, int px, in
     }
     s = PathState{};
     if (ctx.motion || (ctx.instances && ctx.instances->has_motion())) s.time = ps.get(D::kTime);
+    s.features.pending = rs.denoising_features();
     s.ray = generate_camera_ray<kDepthOfField>(ctx.scene->camera, fx, fy, rs.width, rs.height, lens_u, lens_v).ray;
     s.type = RayType::Camera;
 }
@@ -304,6 +310,9 @@ COHERENT_ALWAYS_INLINE void add_lights_passed(const PathContext& ctx, PathState&
 template <bool kLights>
 COHERENT_ALWAYS_INLINE void shade_miss(const PathContext& ctx, PathState& s) {
     const RenderSettings& rs = *ctx.settings;
+    // The world as the features see it: its radiance that way, unless transparent.
+    if (s.features.pending && !(s.bounce == 0 && rs.transparent_film))
+        record_emission_feature(s.features, ctx.lights->world_radiance(s.ray.d), s.out.albedo);
     if (s.bounce == 0) {
         if (rs.integrator == Integrator::AmbientOcclusion) {
             // Nothing occludes a ray that leaves the scene.
@@ -469,6 +478,11 @@ inline void shade_hit(const PathContext& ctx, const PathSampler& ps, PathState& 
     std::optional<Material> scratch;
     const Vec3f interpolated_n = sp.n;
     const Material& mat = material_at(scene, hit, sp, scratch);
+    if (s.features.pending) {
+        record_emission_feature(s.features, mat.emission, s.out.albedo);
+        record_surface_features(mat, sp.n, dot(sp.n, sp.wo), scene.camera, s.features, s.out.albedo,
+                                s.out.denoising_normal);
+    }
     if (mat.is_emissive()) add_emission<kLights>(ctx, s, mat, sp);
     if (s.last_ray) return;
 

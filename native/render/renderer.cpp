@@ -18,6 +18,7 @@
 #include <memory>
 #include <thread>
 
+#include "../denoise/denoiser.h"
 #include "../sample/image_sampler.h"
 #include "kernel_variants.h"
 #include "light_sampling.h"
@@ -43,6 +44,7 @@ struct TileJob {
     const uint8_t* converged;  // per film pixel, row stride film width; null = none skipped
     int film_width;
     bool heatmaps;
+    bool denoising_features;
     int packet_width, packet_height;  // packet traversal: pixels per packet
     PacketAssembly assembly;
     struct WavefrontPool* wavefront;  // wavefront traversal: per-thread pipelines
@@ -60,6 +62,11 @@ struct TileJob {
         }
         film->add_sample(x - border_x0, y - border_y0, o.radiance, o.alpha, o.depth, o.normal, sample);
         if (heatmaps) film->add_heatmap_sample(x - border_x0, y - border_y0, node_visits, simd_utilisation);
+        if (denoising_features) {
+            const bool ok = is_finite(o.albedo) && is_finite(o.denoising_normal);
+            film->add_denoising_features(x - border_x0, y - border_y0, ok ? o.albedo : Vec3f(0.0f),
+                                         ok ? o.denoising_normal : Vec3f(0.0f), sample);
+        }
         ++st.samples;
     }
 };
@@ -261,10 +268,11 @@ public:
         return std::this_thread::get_id() == caller_ && Clock::now() - last_report_ >= std::chrono::milliseconds(250);
     }
     // Sets stats.seconds and reports; returns false if the callback asked to cancel.
-    bool report(int samples_done, double fraction, RenderStats& stats) {
+    bool report(int samples_done, double fraction, RenderStats& stats, double denoise_fraction = -1.0) {
         stats.seconds = seconds();
         if (!callback_) return true;
         Progress p;
+        p.denoise_fraction = denoise_fraction;
         p.samples_done = samples_done;
         p.samples_total = spp_;
         p.fraction = fraction;
@@ -326,6 +334,7 @@ Renderer::Renderer(const Scene& scene, const RenderSettings& settings, std::shar
     m.film_bytes = estimate.film;
     m.estimate_bytes = estimate.total();
     m.limit_bytes = limit.bytes;
+    if (settings_.denoising_features()) film_.enable_denoising_features();
 }
 
 Renderer::~Renderer() = default;
@@ -383,6 +392,7 @@ TileJob pass_job(const PathContext& ctx, const ImageSampler& sampler, Film& film
     job.converged = converged.empty() ? nullptr : converged.data();
     job.film_width = rs.border_width();
     job.heatmaps = rs.heatmaps;
+    job.denoising_features = rs.denoising_features();
     job.packet_width = rs.packet_width;
     job.packet_height = rs.packet_height;
     job.assembly = rs.assembly;
@@ -473,15 +483,35 @@ bool Renderer::render(const ProgressCallback& progress) {
         if (!reporter.report(passes_done, double(passes_done) / spp, stats_)) cancel();
         if (stop_after_pass(passes_done, spp)) break;
     }
+    if (settings_.denoise && !cancelled())
+        denoise_film([&](double f) { return reporter.report(stats_.spp, 1.0, stats_, f); });
     stats_.seconds = reporter.seconds();
     stats_.memory.peak_rss_bytes = peak_rss_bytes();
     return !cancelled();
+}
+
+void Renderer::denoise_film(const std::function<bool(double)>& report) {
+    const auto start = Clock::now();
+    DenoiseOptions options;
+    options.strength = settings_.denoise_strength;
+    options.threads = settings_.threads;
+    options.cancel = &cancelled_;
+    DenoiseResult result = denoise(film_, options, [&](double f) {
+        if (!report(f)) cancel();
+        return !cancelled();
+    });
+    stats_.denoise_seconds = std::chrono::duration<double>(Clock::now() - start).count();
+    if (result.rgb.empty()) return;  // cancelled, or fewer than 2 passes
+    film_.set_denoised(std::move(result.rgb));
+    stats_.denoised_error_estimate = result.error_estimate;
 }
 
 void Renderer::reset_stats() {
     const int bw = settings_.border_width(), bh = settings_.border_height();
     stats_.spp = 0;
     stats_.error_estimate = -1.0;
+    stats_.denoised_error_estimate = -1.0;
+    stats_.denoise_seconds = 0.0;
     stats_.pixels = uint64_t(bw) * uint64_t(bh);
     stats_.converged_pixels = 0;
     converged_.clear();

@@ -26,6 +26,9 @@ struct Progress {
     double fraction = 0.0;  // [0,1] of the whole render
     double seconds = 0.0;
     double error_estimate = -1.0;  // relative RMSE estimate; negative while unknown
+    // After the last pass, while the denoiser runs (settings.denoise): its
+    // progress in [0, 1], samples_done unchanged. Negative otherwise.
+    double denoise_fraction = -1.0;
     const RenderStats* stats = nullptr;
 };
 using ProgressCallback = std::function<bool(const Progress&)>;
@@ -93,6 +96,8 @@ private:
     // after a pass, adaptive sampling and the stopping rules (whether to stop).
     void reset_stats();
     bool stop_after_pass(int passes_done, int spp);
+    // Denoises the film (settings.denoise); report(fraction) returns false to cancel.
+    void denoise_film(const std::function<bool(double)>& report);
     std::atomic<bool> cancelled_{false};
     // The settings asked for Traversal::Auto (resolved in the constructor;
     // render() may still trade packets for single rays after measuring).

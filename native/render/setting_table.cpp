@@ -142,6 +142,15 @@ std::vector<SettingSpec> sampling_rows() {
                                                                        "pixel (SPT), packet (CPT) or subset (ICPT): "
                                                                        "error falls faster on smooth lighting"}}},
         "the random numbers behind every sampler"));
+    t.push_back(flag("denoise", "Denoise", "Sampling", &RenderSettings::denoise,
+                     "denoise the final image with the native feature-guided, cross-validated filter (the noisy "
+                     "image stays in the 'Noisy Image' pass)"));
+    t.push_back(real("denoise_strength", "Denoising Strength", "Sampling", &RenderSettings::denoise_strength, 0.0,
+                     16.0, 4.0,
+                     "how different (in units of the estimated noise) neighbouring pixels may be and still be "
+                     "averaged; higher is smoother, 0 keeps only pixels identical within noise"));
+    t.push_back(flag("denoising_data", "Denoising Data", "Sampling", &RenderSettings::denoising_data,
+                     "fill the 'Denoising Albedo' and 'Denoising Normal' passes (also filled when denoising)"));
     t.push_back(flag("progressive_display", "Progressive Display", "Sampling", &RenderSettings::progressive_display,
                      "a front end shows sample passes as they finish (the viewport); makes the Auto sampler pick "
                      "ICPT"));

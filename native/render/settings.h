@@ -104,6 +104,16 @@ struct RenderSettings {
     // that traced the pixel's rays. Off by default: they cost counters.
     bool heatmaps = false;
 
+    // Denoising (denoise/): after the last pass, Combined is replaced by the
+    // denoised image (the noisy one stays in the Noisy Image pass).
+    // denoise_strength scales the filter's colour tolerance (1 = as tuned).
+    // denoising_data fills the feature passes (Denoising Albedo, Denoising
+    // Normal) without denoising; either costs three more buffers per half.
+    bool denoise = false;
+    float denoise_strength = 1.0f;
+    bool denoising_data = false;
+    bool denoising_features() const { return denoise || denoising_data; }
+
     bool transparent_film = false;      // Film > Transparent: world seen directly gives alpha 0
     bool force_all_features = false;    // ignore SceneFeatures specialisation (benchmarks)
     int tile_size = 32;

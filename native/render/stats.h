@@ -88,6 +88,11 @@ struct RenderStats {
     // Film::relative_rmse_estimate() after the last completed pass; negative
     // while unknown (fewer than 2 passes).
     double error_estimate = -1.0;
+    // Denoising (settings.denoise): the denoised image's relative RMSE
+    // estimate from its filtered halves (negative: not denoised), and the
+    // denoiser's wall-clock seconds (part of `seconds`).
+    double denoised_error_estimate = -1.0;
+    double denoise_seconds = 0.0;
     double seconds = 0.0;
     MemoryStats memory;  // set by the renderer, not summed over threads
 

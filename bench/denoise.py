@@ -1,0 +1,177 @@
+#!/usr/bin/env python3
+"""The native denoiser against more samples: relative RMSE of noisy 16/64/256
+spp and denoised 16/64 spp renders against a two-seed reference, on the
+repository's scenes (the generated glTF Cornell box through the CLI, the
+blend_scenes/*.blend through Blender) and on ../shared/scenes/*.glb when
+present; crops as a PNG; and the denoiser's time as a fraction of a 64-spp
+render at 512 x 512.
+
+    /usr/bin/python3 bench/denoise.py [--res 96] [--ref-spp 384] [--out docs/results]
+
+The reference is two renders of --ref-spp samples with other seeds; a quarter
+of their squared difference estimates the reference's variance and is
+subtracted from every mean squared error (so a noisy reference does not
+flatter or penalise anyone). Because heavy-tailed (firefly) noise makes the
+RMSE unstable, the median absolute error (over pixels where the reference
+is not black) is reported next to it. Writes
+denoise.csv, denoise_crops.png and prints the markdown tables.
+"""
+import argparse
+import csv
+import json
+import os
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+
+import numpy as np
+import OpenImageIO as oiio
+
+REPO = Path(__file__).resolve().parents[1]
+SHARED = REPO.parent / "shared" / "scenes"
+CLI = REPO / "build" / "coherent"
+NAMES = ["noisy16", "noisy64", "noisy256", "denoised16", "denoised64"]
+
+
+def read_rgb(path, pass_name="Combined"):
+    inp = oiio.ImageInput.open(str(path))
+    spec = inp.spec()
+    px = np.asarray(inp.read_image(0, 0, 0, spec.nchannels, "float")).reshape(spec.height, spec.width, -1)
+    inp.close()
+    names = list(spec.channelnames)
+    # The CLI writes R, G, B; Blender's multilayer EXR ViewLayer.<pass>.R, ...
+    keys = list("RGB") if "R" in names else [f"ViewLayer.{pass_name}.{c}" for c in "RGB"]
+    return px[:, :, [names.index(k) for k in keys]].astype(np.float64)
+
+
+def cli_render(scene, out, res, spp, seed, denoise=False, extra=()):
+    args = [str(CLI), "render", str(scene), "-o", str(out), "--res", str(res), str(res), "--spp", str(spp),
+            "--seed", str(seed), "--json", *extra] + (["--denoise"] if denoise else [])
+    return json.loads(subprocess.run(args, capture_output=True, text=True, check=True).stdout)
+
+
+def glb_images(scene, tmp, res, ref_spp):
+    img = {}
+    for key, spp, seed in (("refa", ref_spp, 101), ("refb", ref_spp, 202)):
+        cli_render(scene, tmp / f"{key}.exr", res, spp, seed)
+        img[key] = read_rgb(tmp / f"{key}.exr")
+    for spp in (16, 64, 256):
+        cli_render(scene, tmp / f"n{spp}.exr", res, spp, 7)
+        img[f"noisy{spp}"] = read_rgb(tmp / f"n{spp}.exr")
+    for spp in (16, 64):
+        cli_render(scene, tmp / f"d{spp}.exr", res, spp, 7, denoise=True)
+        img[f"denoised{spp}"] = read_rgb(tmp / f"d{spp}.exr")
+    return img
+
+
+def blend_images(scene, tmp, res, ref_spp):
+    """Renders through Blender (tests/blender/denoise_renders.py) at the
+    resolution percentage that gives about `res` pixels across."""
+    percent = max(1, round(100 * res / 512))
+    specs = [f"refa:{ref_spp}:101:0", f"refb:{ref_spp}:202:0", "n256:256:7:0", "d16:16:7:1", "d64:64:7:1"]
+    users = tmp / "user_scripts"
+    (users / "addons").mkdir(parents=True, exist_ok=True)
+    link = users / "addons" / "coherent"
+    if not link.exists():
+        link.symlink_to(REPO / "addon" / "coherent")
+    env = dict(os.environ, BLENDER_USER_SCRIPTS=str(users))
+    subprocess.run(["blender", "-b", "--factory-startup", "--addons", "coherent", str(scene), "--python",
+                    str(REPO / "tests" / "blender" / "denoise_renders.py"), "--", str(tmp), str(percent), *specs],
+                   check=True, capture_output=True, env=env)
+    img = {k: read_rgb(tmp / f"{k}.exr") for k in ("refa", "refb")}
+    img["noisy256"] = read_rgb(tmp / "n256.exr")
+    for spp in (16, 64):
+        img[f"noisy{spp}"] = read_rgb(tmp / f"d{spp}.exr", "Noisy Image")
+        img[f"denoised{spp}"] = read_rgb(tmp / f"d{spp}.exr")
+    return img
+
+
+def errors(img):
+    ref = (img["refa"] + img["refb"]) / 2
+    ref_var = (img["refa"] - img["refb"]) ** 2 / 4
+    mean = ref.mean()
+    lit = ref.mean(axis=2) > 0  # the median over black background would be 0
+    row = {"reference_self_rmse": float(np.sqrt(ref_var.mean()) / mean)}
+    for n in NAMES:
+        mse = max(float(((img[n] - ref) ** 2 - ref_var).mean()), 0.0)
+        row[f"{n}_rmse"] = float(np.sqrt(mse) / mean)
+        row[f"{n}_median"] = float(np.median(np.abs(img[n] - ref)[lit]) / mean)
+    return row, ref
+
+
+def timing(scene, tmp, res=512, spp=64):
+    """Denoiser seconds over the rest of one render's seconds, same process."""
+    stats = cli_render(scene, tmp / "timing.exr", res, spp, 7, denoise=True)
+    denoise = stats["denoised"]["seconds"]
+    return denoise, stats["seconds"] - denoise
+
+
+def crops(all_images, path):
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    cols = ["noisy16", "denoised16", "noisy64", "denoised64", "noisy256", "ref"]
+    fig, axes = plt.subplots(len(all_images), len(cols), figsize=(2.2 * len(cols), 2.3 * len(all_images)),
+                             squeeze=False)
+    for r, (scene, (img, ref)) in enumerate(all_images.items()):
+        h, w = ref.shape[:2]
+        y0, x0 = h // 4, w // 4
+        scale = 1.0 / max(np.quantile(ref.mean(axis=2), 0.95), 1e-6)
+        for c, name in enumerate(cols):
+            im = ref if name == "ref" else img[name]
+            crop = np.clip(im[y0:y0 + h // 2, x0:x0 + w // 2] * scale, 0, 1) ** (1 / 2.2)
+            axes[r][c].imshow(crop, interpolation="nearest")
+            axes[r][c].set_xticks([]), axes[r][c].set_yticks([])
+            if r == 0:
+                axes[r][c].set_title(name, fontsize=9)
+        axes[r][0].set_ylabel(scene, fontsize=8)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--res", type=int, default=96)
+    ap.add_argument("--ref-spp", type=int, default=384)
+    ap.add_argument("--out", default=str(REPO / "docs" / "results"))
+    ap.add_argument("--skip-blender", action="store_true")
+    args = ap.parse_args()
+    out = Path(args.out)
+    work = Path(tempfile.mkdtemp(prefix="denoise_bench_"))
+    subprocess.run([sys.executable, str(REPO / "tests" / "fixtures" / "make_gltf.py"), str(work)], check=True)
+    scenes = [("fixture cornell_box.glb (CLI)", work / "cornell_box.glb", glb_images)]
+    if not args.skip_blender:
+        scenes += [(f"{p.name} (Blender)", p, blend_images) for p in sorted((REPO / "blend_scenes").glob("*.blend"))]
+    if SHARED.is_dir():
+        scenes += [(f"shared {p.name} (CLI)", p, glb_images) for p in sorted(SHARED.glob("*.glb"))]
+    else:
+        print(f"note: {SHARED} absent; public scenes skipped")
+    rows, images = [], {}
+    for label, path, render in scenes:
+        tmp = work / label.split()[0 if not label.startswith("shared") else 1].replace(".", "_")
+        tmp.mkdir(parents=True, exist_ok=True)
+        img = render(path, tmp, args.res, args.ref_spp)
+        row, ref = errors(img)
+        rows.append({"scene": label, **row})
+        images[label.split(" (")[0]] = (img, ref)
+        print(label, {k: round(v, 4) for k, v in row.items()}, flush=True)
+    with open(out / "denoise.csv", "w", newline="") as f:
+        writer = csv.DictWriter(f, fieldnames=list(rows[0].keys()))
+        writer.writeheader()
+        writer.writerows(rows)
+    crops(images, out / "denoise_crops.png")
+    print("\n| scene | ref self | noisy 16 | noisy 64 | noisy 256 | denoised 16 | denoised 64 |")
+    print("|---|---|---|---|---|---|---|")
+    for r in rows:
+        cells = " | ".join(f"{r[f'{n}_rmse']:.4f} ({r[f'{n}_median']:.4f})" for n in NAMES)
+        print(f"| {r['scene']} | {r['reference_self_rmse']:.4f} | {cells} |")
+    for label, path in [("fixture cornell_box.glb", work / "cornell_box.glb")] + (
+            [("shared crytek_sponza.glb", SHARED / "crytek_sponza.glb")] if (SHARED / "crytek_sponza.glb").exists()
+            else []):
+        d, render = timing(path, work)
+        print(f"\ntiming {label} 512x512 64 spp: render {render:.2f} s, denoise {d:.2f} s = {100 * d / render:.1f} %")
+
+
+if __name__ == "__main__":
+    main()
