@@ -289,9 +289,11 @@ def test_interactive_estimate_keeps_ui_responsive_and_cancels(user_scripts, blen
     # while the pilots were still running, they rendered on another thread,
     # and our timer (run by Blender's event loop) fired repeatedly while the
     # estimate was part-way through. Events, not seconds: how often the
-    # timer fires says little on a shared machine under Xvfb.
+    # timer fires says little on a shared machine under Xvfb: under load the
+    # pilots may finish before the timer fires a second time, so one event
+    # handled while the estimate ran is the proof (a blocking estimate gives 0).
     assert r["running_after_invoke"] is True
-    assert r["ticks_while_running"] >= 2, r["ticks_while_running"]
+    assert r["ticks_while_running"] >= 1, r["ticks_while_running"]
     assert r["render_thread"] is not None and r["render_thread"] != r["main_thread"]
     assert any(0.0 < f < 1.0 for f in r["fractions"]), r["fractions"]
     # The progress fraction only grows, within [0, 1].
