@@ -81,16 +81,21 @@ def render_pair(blender, scene_path, engine, max_bounces, out_dir, perturb=()):
     result = blender(scene_path, *before,
                      "--python", bh.REPO_ROOT / "tests" / "blender" / "render_for_agreement.py",
                      "--", engine, SAMPLES, PERCENT, max_bounces, out_dir, *SEEDS, timeout=600)
+    _RENDERS[key] = read_seed_renders(result, out_dir, engine, SEEDS)
+    return _RENDERS[key]
+
+
+def read_seed_renders(result, out_dir, engine, seeds):
+    """render_for_agreement.py's images of `engine`, one per seed, as float64 RGB (all finite)."""
     assert result.returncode == 0, result.describe()
     images = []
-    for seed in SEEDS:
+    for seed in seeds:
         path = out_dir / f"{engine.lower()}_{seed}.exr"
         assert path.is_file(), result.describe()
         ch = bh.read_image_channels(path)
         rgb = np.stack([ch["R"], ch["G"], ch["B"]], axis=-1).astype(np.float64)
         assert np.isfinite(rgb).all(), f"{path} has non-finite pixels"
         images.append(rgb)
-    _RENDERS[key] = images
     return images
 
 

@@ -20,7 +20,7 @@ import pytest
 
 import blender_helpers as bh
 from seeds import seeded
-from test_cycles_agreement import BLOCK_SIGMAS, K, MEAN_TOLERANCE, compare
+from test_cycles_agreement import BLOCK_SIGMAS, K, MEAN_TOLERANCE, compare, read_seed_renders
 
 SAMPLES = 64
 PERCENT = 19  # 512 -> 97 pixels
@@ -40,15 +40,8 @@ def render_pair(blender, scene_path, engine, out_dir, setup=()):
     result = blender(scene_path, *before,
                      "--python", bh.REPO_ROOT / "tests" / "blender" / "render_for_agreement.py",
                      "--", engine, SAMPLES, PERCENT, MAX_BOUNCES, out_dir, *SEEDS, timeout=600)
-    assert result.returncode == 0, result.describe()
-    images = []
-    for seed in SEEDS:
-        path = out_dir / f"{engine.lower()}_{seed}.exr"
-        assert path.is_file(), result.describe()
-        ch = bh.read_image_channels(path)
-        rgb = np.stack([ch["R"], ch["G"], ch["B"]], axis=-1).astype(np.float64)
-        assert np.isfinite(rgb).all(), f"{path} has non-finite pixels"
-        images.append(rgb[:96, :96])
+    # 96 x 96: the blocks the statistic uses, without the partial last row and column.
+    images = [rgb[:96, :96] for rgb in read_seed_renders(result, out_dir, engine, SEEDS)]
     _RENDERS[key] = (images, result.stdout + result.stderr)
     return _RENDERS[key]
 
