@@ -184,7 +184,8 @@ def timing_noise(rep):
                 if twin:
                     a = rep.get(scene, "coherent", "auto", p, n)["seconds"]
                     b = rep.get(scene, "coherent", twin, p, n)["seconds"]
-                    diffs.append(abs(a - b) / ((a + b) / 2))
+                    if a != b:  # a copied row (Auto not rendered twice) says nothing about noise
+                        diffs.append(abs(a - b) / ((a + b) / 2))
     return (float(np.median(diffs)), len(diffs)) if diffs else (float("nan"), 0)
 
 
@@ -255,7 +256,9 @@ def setup_text(rep):
             f"Reference: Cycles at {i.get('reference_spp', '?')} spp (two halves with other seeds); its own "
             "noise, a quarter of the halves' mean squared difference, is subtracted from each MSE. "
             "Seconds: `bpy.ops.render.render()` in one Blender process per scene (sync or export, BVH "
-            "build and sampling; no Blender start-up). Engines and configurations alternate in one loop.", "",
+            "build and sampling; no Blender start-up). Engines and configurations alternate in one loop. "
+            "Where SPT, CPT and ICPT are rendered, Auto's row is that of the sampler it resolves to (same seed, "
+            "same image), not a second render.", "",
             "Efficiency = 1 / (MSE x seconds); **efficiency ratio = (Cycles' MSE x s) / (ours)**, > 1: we "
             "reach a given error sooner. Issue 10's targets: >= 1 on every scene at 256 spp (aim 2), RMSE at "
             "equal spp within 1.1x of Cycles'."]
@@ -269,7 +272,7 @@ def write(out_dir, rows, info):
     noise, pairs = timing_noise(rep)
     lines = ["# Efficiency against Cycles 3.4", "", "![RMSE against seconds per scene](efficiency_vs_cycles.png)",
              "", *setup_text(rep), "", "Made by (renders, then writes this file, the CSV and the plot):", "",
-             "    " + info.get("command", "?"), "",
+             *("    " + c for c in info.get("commands", ["?"])), "",
              "## Efficiency ratio and RMSE at equal spp (COHERENT's Auto sampler)", "", *headline_table(rep), "",
              "## Time per sample", "",
              "A least-squares line seconds = setup + spp x time per sample over the spp levels above.", "",
@@ -278,8 +281,9 @@ def write(out_dir, rows, info):
              "Each sampler's efficiency relative to the best of the three on the same scene, geometric mean "
              "over scenes (1.00: best everywhere), the scenes each wins, and what Auto resolved to (Auto and "
              "that sampler render the same image at the same seed).", "", *rule_table(rep), "",
-             f"Timing noise: Auto and its twin render identical images, and their seconds differ by a median "
-             f"{fmt(100 * noise, 1)} % ({pairs} pairs); smaller differences in the tables are noise.", "",
+             *([f"Timing noise: Auto and its twin render identical images, and their seconds differ by a median "
+                f"{fmt(100 * noise, 1)} % ({pairs} pairs); smaller differences in the tables are noise.", ""]
+               if pairs else []),
              "## Every configuration", "", *all_configs_table(rep), ""]
     lines += kept_notes(md_path) or [NOTES_MARKER, "", "(none yet)"]
     md_path.write_text("\n".join(lines) + "\n")

@@ -103,13 +103,37 @@ def settings_key(path, args):
     return h.hexdigest()[:12]
 
 
+def resolve_auto(spp, pattern):
+    """What the Auto sampler renders in a final render at `spp`, by the
+    native rule (native/sample/sampler_type.h) of this checkout's module."""
+    sys.path.insert(0, str(REPO / "addon" / "coherent"))
+    import _coherent
+    r = _coherent.Renderer(_coherent.Scene(), width=1, height=1, spp=spp, sampler="auto", pattern=pattern)
+    return r.settings["sampler"]
+
+
 def configs(args, spp):
     """Render configurations at `spp` in loop order: Cycles first, then
-    COHERENT per sampler and pattern. Auto at every spp; SPT, CPT and ICPT
-    at --matrix-spps (one of them renders Auto's image again, which costs a
-    little and measures the timing noise)."""
-    samplers = [s for s in args.samplers if s == "auto" or spp in args.matrix_spps]
-    return [("cycles", "-", "-")] + [("coherent", s, p) for s in samplers for p in args.patterns]
+    COHERENT per sampler and pattern: SPT, CPT and ICPT at --matrix-spps,
+    Auto where the sampler it resolves to is not rendered anyway (elsewhere
+    its row is a copy of that sampler's: same seed, same image)."""
+    coherent = [("coherent", s, p) for s in args.samplers for p in args.patterns
+                if (s != "auto" and spp in args.matrix_spps) or (s == "auto" and auto_twin(args, spp, p) is None)]
+    return [("cycles", "-", "-")] + coherent
+
+
+def auto_twin(args, spp, pattern):
+    """The explicit sampler rendered at `spp` whose image Auto's equals, or None."""
+    twin = resolve_auto(spp, pattern)
+    return twin if twin in args.samplers and spp in args.matrix_spps else None
+
+
+def add_auto_rows(args, rows):
+    """Auto's rows where its twin was rendered instead (see configs)."""
+    if "auto" not in args.samplers:
+        return rows
+    twins = [r for r in rows if r["engine"] == "coherent" and auto_twin(args, r["spp"], r["pattern"]) == r["sampler"]]
+    return rows + [dict(r, sampler="auto") for r in twins]
 
 
 # --- rendering -----------------------------------------------------------------------
@@ -166,6 +190,10 @@ def render_list(args, stem, reference_needed):
         for half, seed in zip("ab", REFERENCE_SEEDS):
             renders.append(dict(engine="CYCLES", spp=args.reference_spp // 2, seed=seed, sampler="-", pattern="-",
                                 out=str(args.work / f"{stem}_ref_{half}.exr"), role="reference"))
+    if not args.references_only:  # one-time costs (first Cycles session, caches) out of the timed renders
+        for engine in ("CYCLES", "COHERENT"):
+            renders.append(dict(engine=engine, spp=1, seed=0, sampler="auto", pattern=args.patterns[0],
+                                out=str(args.work / "renders" / f"{stem}_warmup.exr"), role="warmup"))
     for rep in range(1, 0 if args.references_only else args.reps + 1):
         for spp in args.spps:
             for engine, sampler, pattern in configs(args, spp):
@@ -198,6 +226,8 @@ def measure_scene(args, name, path, which):
             if all(h.exists() for h in halves) and "ref" not in state:
                 state["ref"] = reference_from_halves(read_rgb(halves[0]), read_rgb(halves[1]))
             return
+        if r["role"] == "warmup":
+            return
         ref, ref_var = state["ref"]
         raw = mse(read_rgb(r["out"]), ref)
         row = dict(scene=name, engine=r["engine"].lower(), sampler=r["sampler"], pattern=r["pattern"], spp=r["spp"],
@@ -208,7 +238,7 @@ def measure_scene(args, name, path, which):
               f"rmse {math.sqrt(row['mse']):.5f}", flush=True)
 
     info = run_blender(args, path, renders, on_render)
-    return state["rows"], info
+    return add_auto_rows(args, state["rows"]), info
 
 
 # --- CSV -----------------------------------------------------------------------------
@@ -231,6 +261,21 @@ def read_csv(path):
         for k in ("seconds", "mse_vs_reference", "reference_variance", "mse"):
             r[k] = float(r[k])
     return rows
+
+
+def save_results(args, csv_path, info_path, rows, info, scene_order):
+    """Writes the CSV and the run's settings. With --append, the rows of
+    scenes this run has not rendered, and the commands that made them, are
+    read back from the files as they are now and kept."""
+    done = {r["scene"] for r in rows}
+    if args.append and csv_path.exists():
+        rows = [r for r in read_csv(csv_path) if r["scene"] not in done] + rows
+        if info_path.exists():
+            earlier = json.loads(info_path.read_text()).get("commands", [])
+            info["commands"] = earlier + [c for c in info["commands"] if c not in earlier]
+    order = {n: i for i, n in enumerate(scene_order)}
+    write_csv(csv_path, sorted(rows, key=lambda r: order.get(r["scene"], len(order))))
+    info_path.write_text(json.dumps(info, indent=1) + "\n")
 
 
 # --- main ----------------------------------------------------------------------------
@@ -259,6 +304,8 @@ def parse_args(argv):
     ap.add_argument("--quick", action="store_true",
                     help="2 scenes, 16 and 64 spp, 512-spp reference; output under --work/quick")
     ap.add_argument("--report-only", action="store_true", help="redraw the md and png from the existing CSV")
+    ap.add_argument("--append", action="store_true",
+                    help="keep the existing CSV's rows of the scenes not rendered now (rerun one scene)")
     args = ap.parse_args(argv)
     if args.quick:
         args.spps, args.matrix_spps, args.reference_spp = [16, 64], [16, 64], 512
@@ -279,19 +326,22 @@ def main(argv=None):
     info_path = args.out / "efficiency_vs_cycles.json"
     command = "/usr/bin/python3 bench/efficiency_vs_cycles.py" + "".join(f" {a}" for a in argv)
     if not args.report_only:
-        scenes = [(n, p) for n, p in find_scenes(args.shared) if not args.scene or any(s in n for s in args.scene)]
+        all_scenes = find_scenes(args.shared)
+        scenes = [(n, p) for n, p in all_scenes if not args.scene or any(s in n for s in args.scene)]
         if not scenes:
             sys.exit("no scene matches --scene")
-        rows, info = [], {}
+        rows = []
         for i, (name, path) in enumerate(scenes):
-            scene_rows, info = measure_scene(args, name, path, f"scene {i + 1}/{len(scenes)}")
+            scene_rows, worker = measure_scene(args, name, path, f"scene {i + 1}/{len(scenes)}")
+            if args.references_only:
+                continue
             rows += scene_rows
+            info = dict(worker, commands=[command], res=args.res, threads=args.threads,
+                        max_bounces=args.max_bounces, reference_spp=args.reference_spp, reps=args.reps)
+            # After every scene, so an interrupted run still has a report.
+            save_results(args, csv_path, info_path, rows, info, [n for n, _ in all_scenes])
         if args.references_only:
             return
-        write_csv(csv_path, rows)
-        info.update(command=command, res=args.res, threads=args.threads, max_bounces=args.max_bounces,
-                    reference_spp=args.reference_spp, reps=args.reps)
-        info_path.write_text(json.dumps(info, indent=1) + "\n")
     efficiency_report.write(args.out, read_csv(csv_path), json.loads(info_path.read_text()))
 
 

@@ -111,7 +111,7 @@ def test_auto_rule_table_names_best_and_auto():
 
 def test_report_regenerates_and_keeps_notes(tmp_path):
     rows = synthetic_rows()
-    info = dict(command="/usr/bin/python3 bench/efficiency_vs_cycles.py --test", defaults=dict(pattern="white"))
+    info = dict(commands=["/usr/bin/python3 bench/efficiency_vs_cycles.py --test"], defaults=dict(pattern="white"))
     report.write(tmp_path, rows, info)
     md = (tmp_path / "efficiency_vs_cycles.md").read_text()
     assert (tmp_path / "efficiency_vs_cycles.png").stat().st_size > 0
