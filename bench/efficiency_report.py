@@ -146,12 +146,13 @@ def rule_numbers(rep):
 
 
 def rule_table(rep):
-    lines = ["| spp | pattern | scenes | SPT | CPT | ICPT | wins SPT / CPT / ICPT | best | Auto picked |",
-             "|---:|---|---:|---:|---:|---:|---|---|---|"]
+    lines = ["| spp | pattern | scenes | SPT | CPT | ICPT | CPT / ICPT | wins SPT / CPT / ICPT | best | Auto picked |",
+             "|---:|---|---:|---:|---:|---:|---:|---|---|---|"]
     for r in rule_numbers(rep):
         g, w = r["relative"], r["wins"]
         lines.append(f"| {r['spp']} | {r['pattern']} | {r['scenes']} | {fmt(g['spt'])} | {fmt(g['cpt'])} | "
-                     f"{fmt(g['icpt'])} | {w['spt']} / {w['cpt']} / {w['icpt']} | {r['best'].upper()} | "
+                     f"{fmt(g['icpt'])} | {fmt(g['cpt'] / g['icpt'])} | {w['spt']} / {w['cpt']} / {w['icpt']} | "
+                     f"{r['best'].upper()} | "
                      f"{(r['auto'] or '?').upper()} |")
     return lines
 
@@ -279,8 +280,9 @@ def write(out_dir, rows, info):
              *time_table(rep), "",
              "## Auto sampler: error per second of SPT, CPT and ICPT", "",
              "Each sampler's efficiency relative to the best of the three on the same scene, geometric mean "
-             "over scenes (1.00: best everywhere), the scenes each wins, and what Auto resolved to (Auto and "
-             "that sampler render the same image at the same seed).", "", *rule_table(rep), "",
+             "over scenes (1.00: best everywhere), CPT's over ICPT's (geometric mean of the per-scene ratios), "
+             "the scenes each wins, and what Auto resolved to (Auto and that sampler render the same image at "
+             "the same seed).", "", *rule_table(rep), "",
              *([f"Timing noise: Auto and its twin render identical images, and their seconds differ by a median "
                 f"{fmt(100 * noise, 1)} % ({pairs} pairs); smaller differences in the tables are noise.", ""]
                if pairs else []),

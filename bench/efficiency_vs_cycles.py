@@ -20,14 +20,17 @@ reference of finite spp does not flatten the curves.
 Efficiency = 1 / (MSE x seconds); the ratio (Cycles' MSE x s) / (ours) > 1
 means we reach a given error sooner.
 
-Writes docs/results/efficiency_vs_cycles.{csv,md,png}. One command renders
-and regenerates all three (about 20 minutes on 2 free cores):
+Writes docs/results/efficiency_vs_cycles.{csv,md,png,json}. One command
+renders and regenerates all of them (an estimate for 2 free cores: 20-30
+minutes, plus about 15 the first time, for the cached references; on a
+machine shared with five builds, 16-256 spp alone took 45):
 
     /usr/bin/python3 bench/efficiency_vs_cycles.py
 
-`--quick` is a one-minute check (2 scenes, 16/64 spp, 512-spp reference,
-written under --work, not docs/results); `--report-only` redraws the md
-and plot from the CSV. Needs the add-on's native module built
+`--quick` is a check of a few minutes (2 scenes, 16/64 spp, 512-spp
+reference, written under --work, not docs/results); `--report-only` redraws
+the md and plot from the CSV; `--append --scene NAME` rerenders one scene
+and keeps the others' rows. Needs the add-on's native module built
 (addon/coherent/_coherent*.so) and `blender` 3.4 on PATH (or --blender).
 """
 import argparse
