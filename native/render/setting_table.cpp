@@ -113,8 +113,8 @@ std::vector<SettingSpec> sampling_rows() {
          {SamplerType::Icpt, {"icpt", "ICPT", "Interleaved coherent path tracing: packet blocks split into "
                                               "randomised Latin-hypercube subsets that share sequences; hides CPT's "
                                               "structured noise"}},
-         {SamplerType::Auto, {"auto", "Auto", "ICPT in the viewport and for final renders below " +
-                                                  std::to_string(kAutoCptMinSpp) + " samples, CPT above"}}},
+         {SamplerType::Auto, {"auto", "Auto", "ICPT in the viewport, CPT for final renders (the least error "
+                                              "per second there)"}}},
         "how the random numbers of paths are shared between pixels"));
     SettingSpec packet = row("packet", "Packet Size", "Sampling", SettingType::Size,
                              "ray packet size in pixels (width, height); ICPT uses square blocks of the shorter "

@@ -26,25 +26,27 @@ enum class SamplerType : uint8_t { Spt, Cpt, Icpt, Auto };
 // (Sobol by default).
 enum class SampleSequence : uint8_t { OwenSobol, WhiteNoise };
 
-// Below this many samples per pixel a final render picks ICPT over CPT. A
-// judgement call from the paper's Fig. 2 and docs/results/sampler_rmse.md:
-// CPT's error is as large as SPT's at every sample count but structured
-// (neighbour correlation ~0.7 at any spp), which is obvious at 36 spp and
-// faint once the error itself is small, from a few hundred spp on.
-constexpr int kAutoCptMinSpp = 256;
-
-// The paper's recommendation (section 4): CPT is the fastest and its
-// structured noise vanishes as samples accumulate, so it is best "to render
-// noise free images with a high number of samples"; ICPT hides the structure
-// and is the choice "when intermediate results are displayed". Hence:
-//   progressive display (viewport, or any front end showing passes)  -> ICPT
-//   final render with spp >= kAutoCptMinSpp                          -> CPT
-//   final render with fewer samples (noise stays visible)            -> ICPT
+// Auto chooses by error per second (issue 10, item 5), measured through
+// Blender on the repository's and the public scenes (6 scenes, 128x128,
+// 2 threads, 16/64/256 spp, white noise and Sobol; docs/results/
+// efficiency_vs_cycles.md, "Auto sampler"). Efficiency, 1 / (MSE x s),
+// relative to the best of SPT/CPT/ICPT on each scene, geometric mean over
+// scenes: CPT 0.88-0.97 at every spp and pattern, ICPT 0.32-0.77, SPT
+// 0.64-0.90; CPT over ICPT 1.14-1.36x with white noise and 2.5-3.1x with
+// Sobol. CPT's error at equal spp is 0.88-1.18x SPT's (the glass scene's
+// fireflies aside) and its packets trace faster; ICPT's subsets, re-drawn per sample, lose Sobol's
+// gain (0.14-0.26 of SPT's efficiency on the sun-lit Sponza and bunny).
+// The former rule, ICPT below 256 spp, paid that. Hence:
+//   progressive display (viewport, or any front end showing passes) -> ICPT:
+//       there intermediate passes are looked at, and CPT's noise is
+//       structured (blocky, neighbour correlation ~0.7) until it is small;
+//       the paper (section 4) picks ICPT "when intermediate results are
+//       displayed".
+//   final render, any spp                                            -> CPT
 // Never returns Auto.
-constexpr SamplerType resolve_sampler_type(SamplerType requested, bool progressive_display, int spp) {
+constexpr SamplerType resolve_sampler_type(SamplerType requested, bool progressive_display) {
     if (requested != SamplerType::Auto) return requested;
-    if (progressive_display) return SamplerType::Icpt;
-    return spp >= kAutoCptMinSpp ? SamplerType::Cpt : SamplerType::Icpt;
+    return progressive_display ? SamplerType::Icpt : SamplerType::Cpt;
 }
 
 // Over which pixels CPT and ICPT share their sequences. The paper is not

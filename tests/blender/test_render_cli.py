@@ -111,8 +111,10 @@ def test_multilayer_exr_passes(blender, blend_scenes, tmp_path, scene_file):
         centre_normal = normal[h // 2, w // 2]
         assert abs(centre_depth - 6.892) < 0.05, centre_depth
         assert np.allclose(centre_normal, (0.3285, -0.9445, 0.0), atol=0.03), centre_normal
-        # The floor, seen in the bottom rows, faces +Z.
-        floor_normal = normal[-2, w // 2]
+        # The floor, seen in the bottom rows, faces +Z (the median over them:
+        # a single pixel may straddle the short box's edge, depending on
+        # where the sampler put its samples).
+        floor_normal = np.median(normal[-3:, w // 3: 2 * w // 3].reshape(-1, 3), axis=0)
         assert np.allclose(floor_normal, (0, 0, 1), atol=0.03), floor_normal
 
 

@@ -79,9 +79,8 @@ def test_every_enum_item_reaches_the_native_renderer(coherent_addon, props, name
         assert kwargs[name] == expected
         r = native.Renderer(tiny_native_scene(native), width=4, height=4, spp=1, **kwargs)
         if name == "traversal" and expected == "auto":
-            # Auto resolves by the sampler: packets with CPT, single rays otherwise.
-            sampler = kwargs.get("sampler", "spt")
-            assert r.settings[name] == ("packet" if sampler == "cpt" else "single"), kwargs
+            # Auto resolves by the (resolved) sampler: packets with CPT, single rays otherwise.
+            assert r.settings[name] == ("packet" if r.settings["sampler"] == "cpt" else "single"), kwargs
         else:
             assert r.settings[name] == expected
 
@@ -258,9 +257,14 @@ def test_bvh_visits_pass_warns_with_streams(blender, blend_scenes, tmp_path):
     assert (visits == 0).all()
 
 
+# SPT traces single rays; Auto's CPT would time single rays against packets
+# and report whichever was faster.
+SINGLE_RAYS = bh.python_expr("scene.coherent.sampler = 'SPT'")
+
+
 def test_heatmap_passes_off_by_default(blender, blend_scenes, tmp_path):
     result = blender(blend_scenes / "cornell_box.blend", "-E", bh.ENGINE_ID, "-F", "OPEN_EXR_MULTILAYER",
-                     "-o", tmp_path / "plain_####", "--python-expr", SMALL, "-f", "1")
+                     "-o", tmp_path / "plain_####", "--python-expr", SMALL, "--python-expr", SINGLE_RAYS, "-f", "1")
     assert result.returncode == 0, result.describe()
     names = {n.split(".")[-2] for n in bh.read_image_channels(tmp_path / "plain_0001.exr") if "." in n}
     assert "BVH Visits" not in names and "SIMD Utilisation" not in names
@@ -272,7 +276,8 @@ def test_heatmap_passes_off_by_default(blender, blend_scenes, tmp_path):
 def test_renderer_honours_ambient_occlusion(blender, blend_scenes, tmp_path):
     settings = bh.python_expr("scene.coherent.integrator = 'AO'", "scene.coherent.ao_samples = 4")
     result = blender(blend_scenes / "cornell_box.blend", "-E", bh.ENGINE_ID, "-F", "OPEN_EXR",
-                     "-o", tmp_path / "ao_####", "--python-expr", SMALL, "--python-expr", settings, "-f", "1")
+                     "-o", tmp_path / "ao_####", "--python-expr", SMALL, "--python-expr", settings,
+                     "--python-expr", SINGLE_RAYS, "-f", "1")
     assert result.returncode == 0, result.describe()
     assert "Info: Coherent: ambient occlusion, single rays" in result.stdout, result.describe()
     ch = bh.read_image_channels(tmp_path / "ao_0001.exr")

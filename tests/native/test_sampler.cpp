@@ -276,12 +276,14 @@ TEST(Sampler, ImageSamplerDispatchesAndPathSamplerReadsTheSameStream) {
     EXPECT_EQ(ImageSampler::icpt_block(c), 3u);
 }
 
-TEST(Sampler, AutoFollowsThePaperRecommendation) {
-    EXPECT_EQ(resolve_sampler_type(SamplerType::Auto, true, 4096), SamplerType::Icpt);
-    EXPECT_EQ(resolve_sampler_type(SamplerType::Auto, false, kAutoCptMinSpp), SamplerType::Cpt);
-    EXPECT_EQ(resolve_sampler_type(SamplerType::Auto, false, kAutoCptMinSpp - 1), SamplerType::Icpt);
+TEST(Sampler, AutoIsIcptWhenDisplayedAndCptForFinalRenders) {
+    // docs/results/efficiency_vs_cycles.md: CPT has the least error per
+    // second for final renders; ICPT hides structured noise while passes show.
+    EXPECT_EQ(resolve_sampler_type(SamplerType::Auto, true), SamplerType::Icpt);
+    EXPECT_EQ(resolve_sampler_type(SamplerType::Auto, false), SamplerType::Cpt);
     for (SamplerType t : {SamplerType::Spt, SamplerType::Cpt, SamplerType::Icpt}) {
-        EXPECT_EQ(resolve_sampler_type(t, true, 1), t);
+        EXPECT_EQ(resolve_sampler_type(t, true), t);
+        EXPECT_EQ(resolve_sampler_type(t, false), t);
         EXPECT_EQ(parse_sampler_type(sampler_type_name(t)), t);
     }
     EXPECT_FALSE(parse_sampler_type("SPT").has_value());
