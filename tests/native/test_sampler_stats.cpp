@@ -195,7 +195,9 @@ TEST_F(SamplerStats, CptNoiseIsStructuredAndIcptBreaksItUp) {
 
     // Image-wide sequences: the same structure within a packet, and CPT's
     // errors are also correlated across packet boundaries (x mod 4 == 3).
-    // Measured: CPT +0.615, ICPT -0.014; across edges CPT packet -0.019, image +0.727.
+    // Measured: CPT +0.615, ICPT -0.014; across edges CPT packet -0.019, image +0.727
+    // with uniform light selection; +0.42 with selection by power, where the
+    // image-wide shared choice of light no longer dominates the error.
     const auto cpt_image = errors_of(SamplerType::Cpt, SequenceScope::Image);
     const auto icpt_image = errors_of(SamplerType::Icpt, SequenceScope::Image);
     const double c_cpt_image = neighbour_correlation(cpt_image, w, h, 1, 0);
@@ -207,7 +209,7 @@ TEST_F(SamplerStats, CptNoiseIsStructuredAndIcptBreaksItUp) {
     EXPECT_GT(c_cpt_image, 0.4);
     EXPECT_LT(std::fabs(c_icpt_image), 0.15);
     EXPECT_LT(std::fabs(across_cpt), 0.15);  // independent packets
-    EXPECT_GT(across_cpt_image, 0.5);
+    EXPECT_GT(across_cpt_image, 0.3);
 }
 
 TEST_F(SamplerStats, CoherentSamplersAreDeterministicAcrossThreadCounts) {
