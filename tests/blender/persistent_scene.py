@@ -6,13 +6,16 @@
 #     MODE        move:   a cube keyframed along x beside a static ico sphere and floor
 #                 deform: the same, plus the floor's shape key keyframed (its geometry
 #                         changes every frame)
+#                 edit:   the move scene at frame 1 rendered twice by this script (F12
+#                         twice), the floor's mesh edited in between; give OUT after
+#                         PERSISTENT instead of -o/-a: it writes OUT_a.exr and OUT_b.exr
 #     PERSISTENT  1 = scene.render.use_persistent_data on, 0 = off
 # Frames are 48x48 EXRs at 8 spp with the same seed on every frame.
 import sys
 
 import bpy
 
-mode, persistent = sys.argv[sys.argv.index("--") + 1:][:2]
+mode, persistent, *out = sys.argv[sys.argv.index("--") + 1:]
 scene = bpy.context.scene
 for ob in list(scene.objects):
     bpy.data.objects.remove(ob, do_unlink=True)
@@ -64,3 +67,12 @@ render.use_persistent_data = persistent == "1"
 scene.frame_start, scene.frame_end = 1, 3
 scene.coherent.samples = 8
 scene.coherent.use_animated_seed = False
+
+if mode == "edit":
+    render.filepath = out[0] + "_a.exr"
+    bpy.ops.render.render(write_still=True)
+    for vertex in floor.data.vertices[:2]:
+        vertex.co.z += 1.5
+    floor.data.update()
+    render.filepath = out[0] + "_b.exr"
+    bpy.ops.render.render(write_still=True)

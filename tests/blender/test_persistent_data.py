@@ -63,3 +63,20 @@ def test_summary_reports_reuse(renders):
         # The floor's shape key changed its geometry: it alone is extracted
         # again, and the BVH is rebuilt over the new triangles.
         assert summaries[1:] == [("2", "1", "built")] * 2, result.describe()
+
+
+def test_edit_between_renders(user_scripts, tmp_path):
+    # F12, an edit of the floor's vertices, F12 again: the edited mesh is
+    # extracted again (the depsgraph reports its geometry update) and the
+    # second image is the one a fresh render of the edited scene gives.
+    images, summaries = {}, {}
+    for persistent in (1, 0):
+        out = tmp_path / f"edit_{persistent}"
+        result = bh.run_blender(["--python", SCRIPT, "--", "edit", str(persistent), out], user_scripts)
+        assert result.returncode == 0, result.describe()
+        images[persistent] = [bh.read_image_channels(Path(f"{out}_{k}.exr"))["R"] for k in "ab"]
+        summaries[persistent] = [m.groups() for m in SUMMARY.finditer(result.stdout)]
+    assert summaries[1] == [("0", "3", "built"), ("2", "1", "built")], summaries
+    for kept, fresh in zip(images[1], images[0]):
+        assert np.array_equal(kept, fresh), f"max difference {np.abs(kept - fresh).max()}"
+    assert np.abs(images[1][0] - images[1][1]).max() > 0.1, "the edit changed nothing visible"
