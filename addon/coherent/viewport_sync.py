@@ -189,4 +189,3 @@ class SceneSync:
         self.world = world
         self.counters["world_updates"] += 1
         return True
-
