@@ -80,3 +80,13 @@ def test_edit_between_renders(user_scripts, tmp_path):
     for kept, fresh in zip(images[1], images[0]):
         assert np.array_equal(kept, fresh), f"max difference {np.abs(kept - fresh).max()}"
     assert np.abs(images[1][0] - images[1][1]).max() > 0.1, "the edit changed nothing visible"
+
+
+def test_performance_panel_shows_persistent_data(coherent_addon):
+    # The setting the engine reads must be where a user looks for it
+    # (Cycles shows it under Performance too).
+    import bpy
+    from coherent import ui
+    from test_tracing_settings import draw_panel
+    shown = draw_panel(ui.RENDER_PT_coherent_performance, bpy.context.scene)
+    assert shown.get("use_persistent_data") is True, shown
