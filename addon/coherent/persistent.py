@@ -24,8 +24,8 @@ from . import export, scene_reuse
 
 # Consecutive refits before the next rebuild. A refit keeps the topology of
 # the BVH it came from, which traces slower as objects move away from where
-# it was built (docs/results/persistent_data.md); a rebuild now and then
-# bounds that over a long animation.
+# it was built (Scene.refit_bvh_from); a rebuild now and then bounds that
+# over a long animation. 16 is a guess, not a measurement.
 MAX_CONSECUTIVE_REFITS = 16
 
 
