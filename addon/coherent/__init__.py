@@ -28,7 +28,7 @@ bl_info = {
 if "bpy" in locals():
     import importlib
 
-    for _name in ("quality_model", "materials", "motion", "export", "viewport_sync", "viewport_render",
+    for _name in ("quality_model", "materials", "motion", "export", "scene_reuse", "viewport_sync", "persistent", "viewport_render",
                   "viewport_draw", "viewport", "properties", "engine", "operators", "ui"):
         if _name in locals():
             importlib.reload(locals()[_name])

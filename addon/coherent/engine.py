@@ -23,7 +23,7 @@ import traceback
 import bpy
 import numpy as np
 
-from . import export, motion, viewport
+from . import export, motion, persistent, viewport
 
 # Seconds between progressive updates of the displayed image.
 PREVIEW_INTERVAL = 0.5
@@ -198,6 +198,7 @@ class CoherentRenderEngine(bpy.types.RenderEngine):
         super().__init__(*args, **kwargs)
         self._renderer = None
         self._viewport = None
+        self._persistent = None  # PersistentScene while render.use_persistent_data is on
 
     def __del__(self):
         # Blender may destroy an instance whose __init__ never ran.
@@ -207,6 +208,9 @@ class CoherentRenderEngine(bpy.types.RenderEngine):
         session = getattr(self, "_viewport", None)
         if session is not None:
             session.free()
+        kept = getattr(self, "_persistent", None)
+        if kept is not None:
+            kept.free()
 
     # -- viewport ("Rendered" shading) -------------------------------------------
 
@@ -297,9 +301,7 @@ class CoherentRenderEngine(bpy.types.RenderEngine):
             self.update_stats("", "Motion blur: evaluating the shutter")
             moving = motion.shutter_matrices(self, depsgraph, export.MOTION_TYPES)
         self.update_stats("", "Exporting scene")
-        exported = export.export_scene(native, depsgraph, width, height,
-                                       camera_override=self.camera_override, cancelled=self.test_break,
-                                       motion=moving)
+        exported = self._export(native, depsgraph, width, height, moving)
         for warning in exported.warnings:
             self._warn(warning)
         if self.test_break():
@@ -319,6 +321,9 @@ class CoherentRenderEngine(bpy.types.RenderEngine):
             denoise=props.use_denoising, **props.renderer_kwargs(scene))
         build_seconds = time.perf_counter() - build_start
         self._renderer = renderer
+        reuse = self._persistent.report if self._persistent is not None else None
+        if reuse is not None and reuse.refit_seconds is not None:
+            build_seconds += reuse.refit_seconds
 
         # Blender's result covers the border only (cropped or not: it pastes
         # an uncropped border into the full frame itself).
@@ -347,6 +352,10 @@ class CoherentRenderEngine(bpy.types.RenderEngine):
                    f"in {stats['seconds']:.2f} s")
         print(summary)
         self.report({"INFO"}, summary)
+        if reuse is not None:
+            kept = reuse.summary(build_seconds)
+            print(kept)
+            self.report({"INFO"}, kept)
         memory = memory_summary(stats["memory"])
         print(memory)
         self.report({"INFO"}, memory)
@@ -373,6 +382,25 @@ class CoherentRenderEngine(bpy.types.RenderEngine):
                 message = f"Coherent: convergence record ({len(convergence)} passes) written to {path}"
                 print(message)
                 self.report({"INFO"}, message)
+
+    def _export(self, native, depsgraph, width, height, moving):
+        """Exports the depsgraph; with persistent data, through the kept PersistentScene."""
+        scene = depsgraph.scene
+        if not scene.render.use_persistent_data:
+            if self._persistent is not None:
+                self._persistent.free()
+                self._persistent = None
+            return export.export_scene(native, depsgraph, width, height, camera_override=self.camera_override,
+                                       cancelled=self.test_break, motion=moving)
+        if self._persistent is None:
+            self._persistent = persistent.PersistentScene()
+        # What the kept scene and BVH are valid for: another scene or view
+        # layer, or settings that shape the BVH (its width), start afresh.
+        identity = (scene.original.as_pointer(), depsgraph.view_layer.name,
+                    repr(sorted(scene.coherent.renderer_kwargs(scene).items())))
+        return self._persistent.export(native, depsgraph, width, height, identity,
+                                       camera_override=self.camera_override, cancelled=self.test_break,
+                                       motion=moving)
 
     def _progress_callback(self, renderer, result, native, target_error, convergence):
         """The per-pass callback; appends (seconds, spp, error) to `convergence`

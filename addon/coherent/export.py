@@ -179,9 +179,10 @@ def mesh_cache_key(ob):
 class MeshCache:
     """MeshArrays per mesh_cache_key, optionally kept across exports.
 
-    A final render uses a fresh cache per export. An interactive viewport
-    keeps one for its whole session so that a transform, material or light
-    edit never re-extracts a mesh; it must then drop the entries whose
+    A final render uses a fresh cache per export, unless persistent data
+    keeps one across renders (persistent.py). An interactive viewport keeps
+    one for its whole session so that a transform, material or light edit
+    never re-extracts a mesh. Both must then drop the entries whose
     geometry changed (invalidate_objects / invalidate_data, driven by the
     depsgraph's geometry updates) and those no longer used (retain).
     """

@@ -31,7 +31,7 @@ import sys
 
 import bpy
 
-from . import export, materials
+from . import export, materials, scene_reuse
 
 
 class SceneSync:
@@ -103,29 +103,18 @@ class SceneSync:
         self.counters["full_exports"] += 1
 
     def _refit_from(self, previous, previous_geometry):
-        """Gives the new scene `previous`'s BVH refit to the moved triangles; False if it can't.
-
-        Refit needs the same triangles in the same order: the same instances
-        of the same cached meshes (only matrices and slot materials may
-        differ) and so the same triangle count (checked again natively, e.g.
-        for triangles a degenerate scale dropped).
-        """
-        if previous is None or not previous.has_bvh or previous_geometry is None:
+        """Gives the new scene `previous`'s BVH refit to the moved triangles; False if it can't."""
+        seconds = scene_reuse.refit_from(self.scene, previous, previous_geometry, self.geometry)
+        if seconds is None:
             return False
-        if len(previous_geometry) != len(self.geometry):
-            return False
-        if any(old[:2] != new[:2] for old, new in zip(previous_geometry, self.geometry)):
-            return False
-        if previous.triangle_count != self.scene.triangle_count:
-            return False
-        self.bvh_seconds = self.scene.refit_bvh_from(previous)
+        self.bvh_seconds = seconds
         self.counters["bvh_refits"] += 1
         return True
 
     # -- incremental --------------------------------------------------------------
 
     def _apply_updates(self, native, depsgraph):
-        geometry_objects, geometry_data, edited_materials, all_materials = _classify_updates(depsgraph)
+        geometry_objects, geometry_data, edited_materials, all_materials = scene_reuse.classify_updates(depsgraph)
         invalidated = self.mesh_cache.invalidate_objects(geometry_objects)
         invalidated |= self.mesh_cache.invalidate_data(geometry_data)
         geometry, lights = export.scan_instances(depsgraph)
@@ -200,28 +189,3 @@ class SceneSync:
         self.world = world
         self.counters["world_updates"] += 1
         return True
-
-
-def _classify_updates(depsgraph):
-    """(objects with new geometry, mesh data with new geometry, {material pointer:
-    edited material}, whether a node group changed) from the depsgraph's
-    updates; pointers are of the original datablocks (the evaluated ones'
-    too for mesh data)."""
-    geometry_objects, geometry_data, edited_materials = set(), set(), {}
-    all_materials = False
-    for update in depsgraph.updates:
-        id_ = update.id
-        original = id_.original if id_.original is not None else id_
-        if isinstance(id_, bpy.types.Object):
-            if update.is_updated_geometry:
-                geometry_objects.add(original.as_pointer())
-        elif isinstance(id_, (bpy.types.Mesh, bpy.types.Curve, bpy.types.MetaBall)):
-            if update.is_updated_geometry:
-                geometry_data.update((id_.as_pointer(), original.as_pointer()))
-        elif isinstance(id_, bpy.types.Material):
-            edited_materials[original.as_pointer()] = id_
-        elif isinstance(id_, bpy.types.NodeTree) and not id_.is_embedded_data:
-            # A node group, maybe used by materials. (A material's own
-            # tree is embedded and comes with an update of the material.)
-            all_materials = True
-    return geometry_objects, geometry_data, edited_materials, all_materials
