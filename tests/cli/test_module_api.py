@@ -11,20 +11,11 @@ imported directly (the add-on package itself needs bpy).
 """
 
 import re
-import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
 
-REPO = Path(__file__).resolve().parents[2]
-MODULE_DIR = REPO / "addon" / "coherent"
-
-if not sorted(MODULE_DIR.glob("_coherent*.so")):
-    pytest.fail(f"the native module _coherent*.so is not built in {MODULE_DIR}; build the CMake target _coherent",
-                pytrace=False)
-sys.path.insert(0, str(MODULE_DIR))
-import _coherent as native  # noqa: E402
+from native_module import native
 
 TRIANGLE = np.array([[-1, -1, 0], [1, -1, 0], [0, 1, 0]], np.float32)
 ONE_FACE = np.array([[0, 1, 2]])

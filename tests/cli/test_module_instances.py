@@ -2,19 +2,11 @@
 checks that name the argument, counts, and an instanced scene rendering as
 the same triangles flattened with add_mesh, for every traversal."""
 
-import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
 
-REPO = Path(__file__).resolve().parents[2]
-MODULE_DIR = REPO / "addon" / "coherent"
-if not sorted(MODULE_DIR.glob("_coherent*.so")):
-    pytest.fail(f"the native module _coherent*.so is not built in {MODULE_DIR}; build the CMake target _coherent",
-                pytrace=False)
-sys.path.insert(0, str(MODULE_DIR))
-import _coherent as native  # noqa: E402
+from native_module import native
 
 # An octahedron: 6 vertices, 8 faces.
 OCTA_P = np.array([[1, 0, 0], [-1, 0, 0], [0, 1, 0], [0, -1, 0], [0, 0, 1], [0, 0, -1]], np.float32)

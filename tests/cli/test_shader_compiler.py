@@ -9,14 +9,10 @@ default; unsupported nodes warn once per type; and the program it emits for a
 varying graph passes the native validation and evaluates as the nodes say.
 """
 import importlib.util
-import sys
-from pathlib import Path
 
 import pytest
 
-ADDON = Path(__file__).resolve().parents[2] / "addon" / "coherent"
-sys.path.insert(0, str(ADDON))
-import _coherent as native  # noqa: E402
+from native_module import MODULE_DIR as ADDON, native
 
 spec = importlib.util.spec_from_file_location("shader_compiler", ADDON / "shader_compiler.py")
 sc = importlib.util.module_from_spec(spec)
