@@ -400,7 +400,9 @@ def make_hdri_world():
 def save(scene, filename):
     path = os.path.join(HERE, filename)
     bpy.context.preferences.filepaths.save_version = 0  # no .blend1 backups next to the scenes
-    bpy.ops.wm.save_as_mainfile(filepath=path, compress=True, check_existing=False)
+    # Absolute paths for external files (Blender's HDRIs): a relative one
+    # would only resolve from a clone at the same depth below /.
+    bpy.ops.wm.save_as_mainfile(filepath=path, compress=True, check_existing=False, relative_remap=False)
     print(f"make_scenes: wrote {path} (engine {scene.render.engine})")
 
 
