@@ -48,9 +48,16 @@ ZIP=$(/usr/bin/python3 packaging/build_zip.py | tail -n 1)
 echo "$ZIP"
 
 step "Installing and enabling the add-on in Blender's user configuration"
-blender -b --python-exit-code 1 --python-expr "
-import bpy, sys
+# Two processes: installing over an add-on that the user's preferences
+# already load would make Blender reload its native module in place, which
+# crashes it. The first copies the files without loading any add-on; the
+# second starts with the user's preferences and enables the new files.
+blender -b --factory-startup --python-exit-code 1 --python-expr "
+import bpy
 bpy.ops.preferences.addon_install(overwrite=True, filepath=r'''$ZIP''')
+" 2>&1 | grep -E "Modules Installed|Error|error" || true
+blender -b --python-exit-code 1 --python-expr "
+import bpy
 bpy.ops.preferences.addon_enable(module='coherent')
 import coherent
 bpy.ops.wm.save_userpref()
