@@ -96,6 +96,8 @@ def memory_summary(memory):
     text = f"Coherent: memory: peak {_format_bytes(peak) if peak else 'n/a'}, {memory['triangles']:,} triangles"
     if memory.get("bytes_per_triangle") is not None:
         text += f" at {memory['bytes_per_triangle']:.0f} bytes each"
+    if memory.get("instances"):
+        text += f", {memory['instances']:,} instances at {memory['bytes_per_instance']:.0f} bytes each"
     return (text + f" (BVH {_format_bytes(memory['bvh_bytes'])}, scene {_format_bytes(memory['scene_bytes'])}), "
                    f"film {_format_bytes(memory['film_bytes'])}")
 

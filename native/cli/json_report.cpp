@@ -44,6 +44,8 @@ nlohmann::ordered_json memory_json(const MemoryStats& m) {
     j["estimate_bytes"] = m.estimate_bytes;  // what the check before the BVH build expected
     j["limit_bytes"] = known(m.limit_bytes);
     j["peak_rss_bytes"] = known(m.peak_rss_bytes);  // the process's high-water mark (VmHWM)
+    j["instances"] = m.instances;
+    j["bytes_per_instance"] = ratio(m.bytes_per_instance());  // records only; their BVHs are in bvh_bytes
     return j;
 }
 

@@ -85,6 +85,8 @@ py::dict memory_dict(const MemoryStats& m) {
     d["estimate_bytes"] = m.estimate_bytes;
     d["limit_bytes"] = known(m.limit_bytes);
     d["peak_rss_bytes"] = known(m.peak_rss_bytes);
+    d["instances"] = m.instances;
+    d["bytes_per_instance"] = ratio_object(m.bytes_per_instance());
     return d;
 }
 

@@ -125,6 +125,10 @@ MemoryLimit memory_limit() {
     return limit;
 }
 
+uint64_t instance_record_bytes(const Scene& s) {
+    return vector_bytes(s.instances) + vector_bytes(s.instance_materials) + vector_bytes(s.instance_close);
+}
+
 uint64_t scene_bytes(const Scene& s) {
     uint64_t bytes = vector_bytes(s.vertices) + vector_bytes(s.normals) + vector_bytes(s.has_normals) +
                      vector_bytes(s.material_of) + vector_bytes(s.object_of) + vector_bytes(s.motion_vertices) +
@@ -133,8 +137,7 @@ uint64_t scene_bytes(const Scene& s) {
                      vector_bytes(s.moving_triangles) + vector_bytes(s.moving_flag) + vector_bytes(s.object_names);
     for (const std::string& name : s.object_names) bytes += name.capacity();
     // Shared geometry: each prototype once, each instance one record.
-    bytes += vector_bytes(s.prototypes) + vector_bytes(s.instances) + vector_bytes(s.instance_materials) +
-             vector_bytes(s.instance_close);
+    bytes += vector_bytes(s.prototypes) + instance_record_bytes(s);
     for (const Prototype& p : s.prototypes)
         bytes += vector_bytes(p.vertices) + vector_bytes(p.normals) + vector_bytes(p.has_normals) +
                  vector_bytes(p.slot_of);

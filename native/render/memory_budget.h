@@ -42,6 +42,8 @@ std::string format_bytes(uint64_t bytes);
 
 // The scene's arrays (geometry, per-triangle data, materials, lights), as allocated.
 uint64_t scene_bytes(const Scene& scene);
+// The instances' records: transforms, material slots, shutter-close transforms.
+uint64_t instance_record_bytes(const Scene& scene);
 // The film's per-pixel accumulators (film.h's layout).
 uint64_t film_bytes(uint64_t pixels, bool heatmaps);
 // The most a BVH build over `triangles` holds at once: the finished BVH

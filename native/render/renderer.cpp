@@ -330,7 +330,9 @@ Renderer::Renderer(const Scene& scene, const RenderSettings& settings, std::shar
     MemoryStats& m = stats_.memory;
     m.triangles = estimate.triangles;
     m.scene_bytes = estimate.scene;
-    m.bvh_bytes = bvh_->build_stats().bytes + motion_.bytes();
+    m.bvh_bytes = bvh_->build_stats().bytes + motion_.bytes() + (instances_ ? instances_->bytes() : 0);
+    m.instances = scene_.instances.size();
+    m.instance_bytes = instance_record_bytes(scene_);
     m.film_bytes = estimate.film;
     m.estimate_bytes = estimate.total();
     m.limit_bytes = limit.bytes;

@@ -59,6 +59,10 @@ struct MemoryStats {
     // The process's resident-memory high-water mark after the render
     // (VmHWM; the host application's own memory included); 0: unknown.
     uint64_t peak_rss_bytes = 0;
+    // Instances of shared meshes and the bytes of their records (transforms,
+    // material slots, motion); their BVHs are in bvh_bytes.
+    uint64_t instances = 0;
+    uint64_t instance_bytes = 0;
 
     // Scene and BVH bytes per triangle; empty without triangles.
     std::optional<double> bytes_per_triangle() const {
@@ -66,6 +70,9 @@ struct MemoryStats {
     }
     std::optional<double> bvh_bytes_per_triangle() const {
         return triangles ? std::optional<double>(double(bvh_bytes) / double(triangles)) : std::nullopt;
+    }
+    std::optional<double> bytes_per_instance() const {
+        return instances ? std::optional<double>(double(instance_bytes) / double(instances)) : std::nullopt;
     }
 };
 

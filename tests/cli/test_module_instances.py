@@ -74,6 +74,14 @@ def test_instances_render_as_the_flattened_triangles(traversal):
         return r.pass_pixels("Combined")[:, :3]
 
     a, b = render(instanced), render(flattened)
+    # Memory: the 40 instances are counted, each a record of a few hundred
+    # bytes (three 3x4 transforms and indices), not 8 triangles' worth of copies.
+    r = native.Renderer(instanced, width=8, height=8, spp=1)
+    r.render()
+    memory = r.stats()["memory"]
+    assert memory["instances"] == 40
+    assert 100 <= memory["bytes_per_instance"] <= 400, memory
+    assert memory["triangles"] < flattened.triangle_count, memory
     # The same samples meet the same surfaces: the images differ only where
     # rounding in the transform changes a path, far inside the noise.
     assert abs(a.mean() / b.mean() - 1.0) < 0.01, (a.mean(), b.mean())
