@@ -482,21 +482,33 @@ py::dict material_dict(const Material& m) {
     return d;
 }
 
+// Holds a scene claimed while the GIL is released, as a Renderer claims it:
+// nothing may mutate it under a BVH build (PyScene::check_mutable).
+class SceneClaim {
+public:
+    explicit SceneClaim(const PyScene& scene) : scene_(const_cast<PyScene&>(scene)) { scene_.active_renderers.fetch_add(1); }
+    ~SceneClaim() { scene_.active_renderers.fetch_sub(1); }
+    SceneClaim(const SceneClaim&) = delete;
+    SceneClaim& operator=(const SceneClaim&) = delete;
+
+private:
+    PyScene& scene_;
+};
+
+double seconds_since(std::chrono::steady_clock::time_point start) {
+    return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+}
+
 double build_bvh(PyScene& self, bool spatial_splits) {
     BvhBuildOptions options;
     if (!spatial_splits) options.spatial_split_budget = 0.0f;  // plain binned SAH
     self.ensure_finalized();
     std::shared_ptr<Bvh> bvh;
-    // Claimed like a Renderer claims it: no mutation while the GIL is released.
-    self.active_renderers.fetch_add(1);
-    try {
+    {
+        SceneClaim claim(self);
         py::gil_scoped_release unlocked;
         bvh = Renderer::build_bvh(self.scene, options);  // leaves moving triangles to the MotionBvh
-    } catch (...) {
-        self.active_renderers.fetch_sub(1);
-        throw;
     }
-    self.active_renderers.fetch_sub(1);
     self.bvh = bvh;
     return bvh->build_stats().seconds;
 }
@@ -516,18 +528,39 @@ double refit_bvh_from(PyScene& self, const PyScene& previous) {
     const auto start = std::chrono::steady_clock::now();
     std::shared_ptr<const Bvh> source = previous.bvh;  // kept alive while the GIL is released
     auto bvh = std::make_shared<Bvh>();
-    self.active_renderers.fetch_add(1);  // no mutation of `self` while unlocked (as build_bvh)
-    try {
+    {
+        SceneClaim claim(self);
         py::gil_scoped_release unlocked;
         *bvh = *source;
         bvh->refit(self.scene);
-    } catch (...) {
-        self.active_renderers.fetch_sub(1);
-        throw;
     }
-    self.active_renderers.fetch_sub(1);
     self.bvh = bvh;
-    return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    return seconds_since(start);
+}
+
+// Scene.build_instance_bvh: the two-level BVH of `self`'s instances, sharing
+// the prototype BVHs of `previous` whose triangles did not change
+// (InstanceBvh::build_reusing). Persistent data's re-render: only changed
+// meshes are built again.
+py::dict build_instance_bvh(PyScene& self, const PyScene& previous) {
+    if (!previous.instance_bvh)
+        throw py::value_error("build_instance_bvh: the previous scene has no instance BVH (render it first)");
+    if (&self == &previous) throw py::value_error("build_instance_bvh: previous must be another scene");
+    self.ensure_finalized();
+    const auto start = std::chrono::steady_clock::now();
+    std::shared_ptr<const InstanceBvh> source = previous.instance_bvh;  // kept alive while unlocked
+    auto built = std::make_shared<InstanceBvh>();
+    {
+        SceneClaim claim(self), claim_previous(previous);
+        py::gil_scoped_release unlocked;
+        built->build_reusing(self.scene, *source, previous.scene);
+    }
+    self.instance_bvh = built;
+    py::dict d;
+    d["reused"] = built->reused_prototypes();
+    d["built"] = built->built_prototypes();
+    d["seconds"] = seconds_since(start);
+    return d;
 }
 
 // The world's environment map from a numpy image. Returns the number of
@@ -693,6 +726,8 @@ native/shader/program.h) whose outputs override the constants per shading point.
             }, "Removes every light (add_light adds them again). Keeps the BVH.")
         .def_property_readonly("has_bvh", [](const PyScene& s) { return s.bvh != nullptr; },
                                "Whether a BVH over the current triangles is kept for the next Renderer.")
+        .def_property_readonly("has_instance_bvh", [](const PyScene& s) { return s.instance_bvh != nullptr; },
+                               "Whether the instances' two-level BVH is kept for the next Renderer.")
         .def("build_bvh", &build_bvh, py::arg("spatial_splits") = true, R"doc(
 Builds the BVH over the current triangles now and keeps it for the next
 Renderers (which otherwise build one with spatial splits). Without spatial
@@ -705,6 +740,11 @@ them moved (a transform edit re-exported from cached meshes). Hits are exact
 either way; the refit tree keeps the old topology, so it traces somewhat
 slower when objects moved far. Raises ValueError if `previous` has no BVH or
 a different triangle count. Returns seconds (copy + refit).)doc")
+        .def("build_instance_bvh", &build_instance_bvh, py::arg("previous"), R"doc(
+Builds this scene's instance BVH now, taking from `previous` (a scene a
+Renderer has rendered) the BVH of every prototype whose object-space
+triangles are exactly the same; only the others and the top level over the
+instances are built. Returns {"reused": n, "built": m, "seconds": s}.)doc")
         .def("add_light", &add_light, py::arg("type") = "POINT", py::kw_only(),
              py::arg("color") = py::make_tuple(1.0, 1.0, 1.0), py::arg("power") = 10.0,
              py::arg("position") = py::make_tuple(0.0, 0.0, 0.0), py::arg("direction") = py::make_tuple(0.0, 0.0, -1.0),
