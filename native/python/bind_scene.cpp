@@ -671,6 +671,31 @@ void bind_world(py::class_<PyScene, std::shared_ptr<PyScene>>& cls) {
             }, "(width, height) of the world's environment map; (0, 0) for none.");
 }
 
+// The BVHs a scene keeps for its Renderers, and their reuse across scenes.
+void bind_bvh(py::class_<PyScene, std::shared_ptr<PyScene>>& cls) {
+    cls.def_property_readonly("has_bvh", [](const PyScene& s) { return s.bvh != nullptr; },
+                              "Whether a BVH over the current triangles is kept for the next Renderer.")
+        .def_property_readonly("has_instance_bvh", [](const PyScene& s) { return s.instance_bvh != nullptr; },
+                              "Whether the instances' two-level BVH is kept for the next Renderer.")
+        .def("build_bvh", &build_bvh, py::arg("spatial_splits") = true, R"doc(
+Builds the BVH over the current triangles now and keeps it for the next
+Renderers (which otherwise build one with spatial splits). Without spatial
+splits the build is several times faster and traversal somewhat slower: the
+trade interactive viewports want after a geometry edit. Returns build seconds.)doc")
+        .def("refit_bvh_from", &refit_bvh_from, py::arg("previous"), R"doc(
+Keeps a copy of `previous`'s BVH refit to this scene's triangles instead of
+building one: for a scene with the same triangles in the same order, some of
+them moved (a transform edit re-exported from cached meshes). Hits are exact
+either way; the refit tree keeps the old topology, so it traces somewhat
+slower when objects moved far. Raises ValueError if `previous` has no BVH or
+a different triangle count. Returns seconds (copy + refit).)doc")
+        .def("build_instance_bvh", &build_instance_bvh, py::arg("previous"), R"doc(
+Builds this scene's instance BVH now, taking from `previous` (a scene a
+Renderer has rendered) the BVH of every prototype whose object-space
+triangles are exactly the same; only the others and the top level over the
+instances are built. Returns {"reused": n, "built": m, "seconds": s}.)doc");
+}
+
 void bind_scene(py::module_& m) {
     py::class_<PyScene, std::shared_ptr<PyScene>> scene_class(m, "Scene", R"doc(
 A scene under construction: world-space triangles, shared meshes placed by
@@ -724,27 +749,6 @@ native/shader/program.h) whose outputs override the constants per shading point.
                 s.scene.lights.clear();
                 s.finalized = false;
             }, "Removes every light (add_light adds them again). Keeps the BVH.")
-        .def_property_readonly("has_bvh", [](const PyScene& s) { return s.bvh != nullptr; },
-                               "Whether a BVH over the current triangles is kept for the next Renderer.")
-        .def_property_readonly("has_instance_bvh", [](const PyScene& s) { return s.instance_bvh != nullptr; },
-                               "Whether the instances' two-level BVH is kept for the next Renderer.")
-        .def("build_bvh", &build_bvh, py::arg("spatial_splits") = true, R"doc(
-Builds the BVH over the current triangles now and keeps it for the next
-Renderers (which otherwise build one with spatial splits). Without spatial
-splits the build is several times faster and traversal somewhat slower: the
-trade interactive viewports want after a geometry edit. Returns build seconds.)doc")
-        .def("refit_bvh_from", &refit_bvh_from, py::arg("previous"), R"doc(
-Keeps a copy of `previous`'s BVH refit to this scene's triangles instead of
-building one: for a scene with the same triangles in the same order, some of
-them moved (a transform edit re-exported from cached meshes). Hits are exact
-either way; the refit tree keeps the old topology, so it traces somewhat
-slower when objects moved far. Raises ValueError if `previous` has no BVH or
-a different triangle count. Returns seconds (copy + refit).)doc")
-        .def("build_instance_bvh", &build_instance_bvh, py::arg("previous"), R"doc(
-Builds this scene's instance BVH now, taking from `previous` (a scene a
-Renderer has rendered) the BVH of every prototype whose object-space
-triangles are exactly the same; only the others and the top level over the
-instances are built. Returns {"reused": n, "built": m, "seconds": s}.)doc")
         .def("add_light", &add_light, py::arg("type") = "POINT", py::kw_only(),
              py::arg("color") = py::make_tuple(1.0, 1.0, 1.0), py::arg("power") = 10.0,
              py::arg("position") = py::make_tuple(0.0, 0.0, 0.0), py::arg("direction") = py::make_tuple(0.0, 0.0, -1.0),
@@ -791,6 +795,7 @@ instances are built. Returns {"reused": n, "built": m, "seconds": s}.)doc")
                    " lights>";
         });
     bind_world(scene_class);
+    bind_bvh(scene_class);
 }
 
 }  // namespace coherent::python
