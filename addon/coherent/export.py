@@ -488,10 +488,7 @@ class SceneExporter:
         for group in self._groups.values():
             if group is None or not group.matrices:
                 continue
-            once = placements[group.mesh_key] == 1 and group.owner not in self.separate_objects
-            if once or any(m in self.materials.mesh_attribute_materials for m in group.slots):
-                # Prototypes carry no UVs or tangents yet: a mesh whose
-                # materials read them is placed as world-space copies.
+            if placements[group.mesh_key] == 1 and group.owner not in self.separate_objects:
                 for k, matrix in enumerate(group.matrices):
                     self._add_flattened(group, matrix, group.closes[k] if group.closes else None)
                 group.matrices = []
@@ -500,7 +497,7 @@ class SceneExporter:
             proto = prototypes.get(group.mesh_key)
             if proto is None:
                 proto = scene.add_prototype(group.name, arrays.positions, arrays.indices, normals=arrays.normals,
-                                            material_ids=arrays.material_index)
+                                            material_ids=arrays.material_index, **(arrays.shading or {}))
                 prototypes[group.mesh_key] = proto
             if proto >= 0:
                 closes = None if group.closes is None else group.matrix_array(group.closes)

@@ -257,10 +257,13 @@ size_t add_mesh(PyScene& self, const std::string& name, const py::handle& positi
 // Scene.add_prototype: a mesh stored once in object space (instance.h).
 int64_t add_prototype(PyScene& self, const std::string& name, const py::handle& positions_obj,
                       const py::handle& indices_obj, const py::handle& normals_obj,
-                      const py::handle& material_ids_obj) {
+                      const py::handle& material_ids_obj, const py::handle& uvs_obj, const py::handle& tangents_obj,
+                      const py::handle& generated_obj) {
     self.check_mutable("add_prototype");
     MeshArgs args;
     read_mesh_arrays(args, name, positions_obj, indices_obj, normals_obj, material_ids_obj);
+    MeshShadingArrays shading_arrays;  // kept alive until add_prototype copied them
+    read_mesh_shading(self, args.in, uvs_obj, tangents_obj, generated_obj, shading_arrays);
     uint32_t id;
     {
         py::gil_scoped_release unlocked;
@@ -604,12 +607,14 @@ size_t set_world_map(PyScene& self, const py::handle& pixels, const py::handle& 
 void bind_instancing(py::class_<PyScene, std::shared_ptr<PyScene>>& scene_class) {
     scene_class
         .def("add_prototype", &add_prototype, py::arg("name"), py::arg("positions"), py::arg("indices"),
-             py::arg("normals") = py::none(), py::arg("material_ids") = py::none(),
+             py::arg("normals") = py::none(), py::arg("material_ids") = py::none(), py::kw_only(),
+             py::arg("uvs") = py::none(), py::arg("tangents") = py::none(), py::arg("generated") = py::none(),
              R"doc(Adds a mesh shared by instances, stored once in object space.
 
-Arguments as add_mesh's (no matrix). Material ids select slots that each
-instance maps to scene materials (add_instances). Returns the prototype's
-index, or -1 when no triangle was usable (reported in `dropped`).
+Arguments as add_mesh's (no matrix), UVs, tangents and texture space
+included: every instance shades with them. Material ids select slots that
+each instance maps to scene materials (add_instances). Returns the
+prototype's index, or -1 when no triangle was usable (reported in `dropped`).
 )doc")
         .def("add_instances", &add_instances, py::arg("prototype"), py::arg("matrices"),
              py::arg("material_slots") = py::none(), py::arg("name") = "", py::arg("matrices_close") = py::none(),
