@@ -549,8 +549,8 @@ _HANDLERS = {
 # nodes have more sockets than an instruction has register slots, so each
 # instruction addresses its registers through a list it appends to the
 # program's data: inputs in the order of node_procedural.h's layouts, then
-# outputs (only the output asked for is computed, the others are marked
-# unused). A node whose inputs are all constant folds like any other.
+# outputs (only the linked ones are computed, the others are marked unused).
+# A node whose inputs are all constant folds like any other.
 
 NO_REGISTER = 0xFFFF
 DIMENSIONS = {"1D": 1, "2D": 2, "3D": 3, "4D": 4}
@@ -565,23 +565,31 @@ GRADIENT_TYPES = ("LINEAR", "QUADRATIC", "EASING", "DIAGONAL", "RADIAL", "QUADRA
 
 
 def _emit_listed(b, op, mode, inputs, out_widths, wanted):
-    """Appends a procedural instruction; returns the value of output `wanted` (a register or a folded constant).
+    """Appends a procedural instruction computing outputs `wanted` (indices); returns their values
+    (registers, or constants where it folded).
 
     inputs: (value, width) in layout order; out_widths: the widths of all the op's outputs.
     """
     in_regs = [b.register(v, w) for v, w in inputs]
-    out = b._new(out_widths[wanted])
+    outs = {k: b._new(out_widths[k]) for k in wanted}
     offset = len(b.data)
     b.data.extend(float(r.index) for r in in_regs)
-    b.data.extend(float(out.index if k == wanted else NO_REGISTER) for k in range(len(out_widths)))
+    b.data.extend(float(outs[k].index if k in outs else NO_REGISTER) for k in range(len(out_widths)))
     b.code.append([OP[op], mode, -1, -1, -1, -1, -1, -1, offset])
     if b._fold is not None and all(b._is_constant_reg(r) for r in in_regs):
-        return b._fold_last([out])[0]
-    return out
+        return b._fold_last([outs[k] for k in wanted])
+    return [outs[k] for k in wanted]
 
 
-def _output_index(node, out):
-    return [o.identifier for o in node.outputs].index(out.identifier)
+def _procedural(gc, node, out, op, mode, inputs, out_widths):
+    """One instruction for every linked output of `node` (plus `out`); the others' values are cached."""
+    ids = [o.identifier for o in node.outputs]
+    wanted = [k for k, o in enumerate(node.outputs) if o.identifier == out.identifier or o.is_linked]
+    values = _emit_listed(gc.b, op, mode, inputs, out_widths, wanted)
+    group = tuple(g.as_pointer() for g in gc._group_path)
+    for k, value in zip(wanted, values):
+        gc._cache.setdefault((group, node.as_pointer(), ids[k]), value)
+    return values[wanted.index(ids.index(out.identifier))]
 
 
 def _floats(gc, node, names):
@@ -595,28 +603,26 @@ def _vector(gc, node):
 def _white_noise(gc, node, out):
     # Cycles' White Noise reads its Vector socket as is (zero when unlinked), not texture coordinates.
     inputs = [(_inp(gc, node, "Vector", 3), 3), (_inp(gc, node, "W", 1), 1)]
-    return _emit_listed(gc.b, "TEX_WHITE_NOISE", DIMENSIONS[node.noise_dimensions], inputs, (1, 3),
-                       _output_index(node, out))
+    return _procedural(gc, node, out, "TEX_WHITE_NOISE", DIMENSIONS[node.noise_dimensions], inputs, (1, 3))
 
 
 def _noise(gc, node, out):
     inputs = [_vector(gc, node)] + _floats(gc, node, ("W", "Scale", "Detail", "Roughness", "Distortion"))
-    return _emit_listed(gc.b, "TEX_NOISE", DIMENSIONS[node.noise_dimensions], inputs, (1, 3),
-                       _output_index(node, out))
+    return _procedural(gc, node, out, "TEX_NOISE", DIMENSIONS[node.noise_dimensions], inputs, (1, 3))
 
 
 def _voronoi(gc, node, out):
     mode = DIMENSIONS[node.voronoi_dimensions] | VORONOI_FEATURES.index(node.feature) << 4 | \
         VORONOI_METRICS.index(node.distance) << 8
     inputs = [_vector(gc, node)] + _floats(gc, node, ("W", "Scale", "Smoothness", "Exponent", "Randomness"))
-    return _emit_listed(gc.b, "TEX_VORONOI", mode, inputs, (1, 3, 3, 1, 1), _output_index(node, out))
+    return _procedural(gc, node, out, "TEX_VORONOI", mode, inputs, (1, 3, 3, 1, 1))
 
 
 def _musgrave(gc, node, out):
     mode = DIMENSIONS[node.musgrave_dimensions] | MUSGRAVE_TYPES.index(node.musgrave_type) << 4
     inputs = [_vector(gc, node)] + _floats(gc, node, ("W", "Scale", "Detail", "Dimension", "Lacunarity", "Offset",
                                                      "Gain"))
-    return _emit_listed(gc.b, "TEX_MUSGRAVE", mode, inputs, (1,), 0)
+    return _procedural(gc, node, out, "TEX_MUSGRAVE", mode, inputs, (1,))
 
 
 def _wave(gc, node, out):
@@ -624,18 +630,18 @@ def _wave(gc, node, out):
         WAVE_RINGS.index(node.rings_direction) << 4 | WAVE_PROFILES.index(node.wave_profile) << 6
     inputs = [_vector(gc, node)] + _floats(gc, node, ("Scale", "Distortion", "Detail", "Detail Scale",
                                                      "Detail Roughness", "Phase Offset"))
-    return _emit_listed(gc.b, "TEX_WAVE", mode, inputs, (3, 1), _output_index(node, out))
+    return _procedural(gc, node, out, "TEX_WAVE", mode, inputs, (3, 1))
 
 
 def _gradient(gc, node, out):
-    return _emit_listed(gc.b, "TEX_GRADIENT", GRADIENT_TYPES.index(node.gradient_type), [_vector(gc, node)], (3, 1),
-                       _output_index(node, out))
+    mode = GRADIENT_TYPES.index(node.gradient_type)
+    return _procedural(gc, node, out, "TEX_GRADIENT", mode, [_vector(gc, node)], (3, 1))
 
 
 def _magic(gc, node, out):
     depth = max(0, min(10, int(node.turbulence_depth)))
     inputs = [_vector(gc, node)] + _floats(gc, node, ("Scale", "Distortion"))
-    return _emit_listed(gc.b, "TEX_MAGIC", depth, inputs, (3, 1), _output_index(node, out))
+    return _procedural(gc, node, out, "TEX_MAGIC", depth, inputs, (3, 1))
 
 
 def _brick(gc, node, out):
@@ -643,7 +649,7 @@ def _brick(gc, node, out):
     inputs = [_vector(gc, node)] + [(_inp(gc, node, name, 3), 3) for name in ("Color1", "Color2", "Mortar")]
     inputs += _floats(gc, node, ("Scale", "Mortar Size", "Mortar Smooth", "Bias", "Brick Width", "Row Height"))
     inputs += [(float(node.offset), 1), (float(node.squash), 1)]
-    return _emit_listed(gc.b, "TEX_BRICK", mode, inputs, (3, 1), _output_index(node, out))
+    return _procedural(gc, node, out, "TEX_BRICK", mode, inputs, (3, 1))
 
 
 _HANDLERS.update({

@@ -66,7 +66,9 @@ class Tree:
 
 
 def link(from_socket, to_socket):
-    to_socket.links.append(Link(from_socket, to_socket))
+    new = Link(from_socket, to_socket)
+    to_socket.links.append(new)
+    from_socket.links.append(new)  # as in bpy, an output lists its links too
 
 
 def math(op, a=0.0, b=0.0):
@@ -216,15 +218,17 @@ def test_procedural_node_with_constant_inputs_folds_to_cycles_hash():
 def test_procedural_nodes_emit_valid_programs():
     gc, builder, warnings = compiler()
     coord = uv_node()
-    kinds = {
-        "ShaderNodeTexNoise": dict(noise_dimensions="4D"),
-        "ShaderNodeTexVoronoi": dict(voronoi_dimensions="2D", feature="SMOOTH_F1", distance="MINKOWSKI"),
-        "ShaderNodeTexMusgrave": dict(musgrave_dimensions="3D", musgrave_type="HETERO_TERRAIN"),
-        "ShaderNodeTexWave": dict(wave_type="RINGS", bands_direction="X", rings_direction="SPHERICAL",
-                                  wave_profile="TRI"),
-        "ShaderNodeTexGradient": dict(gradient_type="RADIAL"),
-        "ShaderNodeTexMagic": dict(turbulence_depth=4),
-        "ShaderNodeTexBrick": dict(offset=0.5, offset_frequency=2, squash=1.0, squash_frequency=2),
+    fac_color, color_fac = [("Fac",), ("Color", "RGBA")], [("Color", "RGBA"), ("Fac",)]
+    kinds = {  # Blender's outputs, in its order, and the node's properties
+        "ShaderNodeTexNoise": (fac_color, dict(noise_dimensions="4D")),
+        "ShaderNodeTexVoronoi": ([("Distance",), ("Color", "RGBA"), ("Position", "VECTOR"), ("W",), ("Radius",)],
+                                 dict(voronoi_dimensions="2D", feature="SMOOTH_F1", distance="MINKOWSKI")),
+        "ShaderNodeTexMusgrave": ([("Fac",)], dict(musgrave_dimensions="3D", musgrave_type="HETERO_TERRAIN")),
+        "ShaderNodeTexWave": (color_fac, dict(wave_type="RINGS", bands_direction="X", rings_direction="SPHERICAL",
+                                              wave_profile="TRI")),
+        "ShaderNodeTexGradient": (color_fac, dict(gradient_type="RADIAL")),
+        "ShaderNodeTexMagic": (color_fac, dict(turbulence_depth=4)),
+        "ShaderNodeTexBrick": (color_fac, dict(offset=0.5, offset_frequency=2, squash=1.0, squash_frequency=2)),
     }
     names = ["W", "Scale", "Detail", "Roughness", "Distortion", "Smoothness", "Exponent", "Randomness", "Dimension",
              "Lacunarity", "Offset", "Gain", "Detail Scale", "Detail Roughness", "Phase Offset", "Mortar Size",
@@ -232,13 +236,16 @@ def test_procedural_nodes_emit_valid_programs():
     inputs = [("Vector", "VECTOR", (0, 0, 0))] + [(n, "VALUE", 0.5) for n in names] + \
         [(n, "RGBA", (0.5, 0.5, 0.5)) for n in ("Color1", "Color2", "Mortar")]
     values = []
-    for idname, props in kinds.items():
-        tex = Node(idname, inputs=inputs, outputs=[("Fac",), ("Color", "RGBA")], **props)
+    for idname, (outputs, props) in kinds.items():
+        tex = Node(idname, inputs=inputs, outputs=outputs, **props)
         link(coord.outputs["UV"], tex.inputs["Vector"])
-        target = consumer("RGBA")
-        link(tex.outputs["Color"], target)
-        values.append(gc.input_value(target))
-    assert all(isinstance(v, sc.Reg) and v.width == 3 for v in values) and warnings == []
+        targets = [consumer(out.type) for out in tex.outputs]
+        for out, target in zip(tex.outputs, targets):  # every output linked: one instruction computes them all
+            link(out, target)
+        values += [gc.input_value(target) for target in targets]
+    assert warnings == [] and all(isinstance(v, sc.Reg) for v in values)
+    procedural = [row for row in builder.code if row[0] >= sc.OP["TEX_WHITE_NOISE"]]
+    assert len(procedural) == len(kinds)
     for v in values:
         builder.output("emission", 0, v)
     scene = native.Scene()
