@@ -10,6 +10,7 @@
 #include "../scene/scene.h"
 #include "node_color.h"
 #include "node_math.h"
+#include "node_procedural.h"
 #include "program.h"
 #include "textures.h"
 
@@ -219,6 +220,15 @@ void run(const Scene& scene, const ShaderProgram& prog, const ShadingGeometry& g
                 r.set(in.out[0], normal_map(scene, g, NormalMapSpace(in.mode), r.f(in.in[0]), r.v(in.in[1])));
                 break;
             case ShaderOp::Clamp: r.set(in.out[0], svm_clamp(in.mode, r.f(in.in[0]), r.f(in.in[1]), r.f(in.in[2]))); break;
+            // Procedural textures
+            case ShaderOp::TexWhiteNoise:
+            case ShaderOp::TexNoise:
+            case ShaderOp::TexVoronoi:
+            case ShaderOp::TexMusgrave:
+            case ShaderOp::TexWave:
+            case ShaderOp::TexGradient:
+            case ShaderOp::TexMagic:
+            case ShaderOp::TexBrick: run_procedural(in, prog.data.data(), r.r); break;
             case ShaderOp::Count: break;
         }
     }
