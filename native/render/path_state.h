@@ -38,6 +38,7 @@
 #include "../sample/image_sampler.h"
 #include "../scene/scene.h"
 #include "../shader/eval.h"
+#include "../shader/program.h"
 #include "bsdf.h"
 #include "camera_rays.h"
 #include "instance_shading.h"
@@ -277,11 +278,34 @@ COHERENT_ALWAYS_INLINE SurfacePoint surface_point(const Scene& scene, const Path
     return sp;
 }
 
+// Cycles' path flags and bounce counters at a hit of s.ray (the Light Path
+// node): the ray's type says how it left the previous surface.
+inline LightPathInfo light_path_info(const PathState& s, float t) {
+    using F = LightPathInfo;
+    LightPathInfo info;
+    switch (s.type) {
+        case RayType::Camera: info.flags = F::kCamera; break;
+        case RayType::Diffuse: info.flags = F::kDiffuse | F::kReflect; break;
+        case RayType::Glossy: info.flags = F::kGlossy | F::kReflect; break;
+        case RayType::Reflection: info.flags = F::kGlossy | F::kSingular | F::kReflect; break;
+        case RayType::Refraction:  // sharp glass leaves prev_pdf 0 (a delta)
+            info.flags = F::kGlossy | F::kTransmit | (s.prev_pdf == 0.0f ? F::kSingular : 0);
+            break;
+        default: info.flags = 0; break;
+    }
+    info.ray_length = t;
+    info.depth = s.bounce;
+    info.diffuse_depth = s.diffuse_bounce;
+    info.glossy_depth = s.glossy_bounce;
+    info.transmission_depth = s.transmission_bounce;
+    return info;
+}
+
 // The material at sp: its constants, or for a node graph with non-constant
 // inputs what its shader program computes there (built in `scratch`; a
 // normal map also replaces sp.n). Constant materials take the first return.
-COHERENT_ALWAYS_INLINE const Material& material_at(const Scene& scene, const Hit& hit, SurfacePoint& sp,
-                                                    std::optional<Material>& scratch) {
+COHERENT_ALWAYS_INLINE const Material& material_at(const Scene& scene, const PathState& s, const Hit& hit,
+                                                    SurfacePoint& sp, std::optional<Material>& scratch) {
     const Material& base = scene.materials[sp.material];
     if (!base.program) return base;
     ShadingGeometry g;
@@ -293,6 +317,12 @@ COHERENT_ALWAYS_INLINE const Material& material_at(const Scene& scene, const Hit
     g.ng = sp.ng_f;
     g.wo = sp.wo;
     g.front = sp.front;
+    LightPathInfo path;
+    if (base.program->uses_light_path) {
+        // Cycles starts camera rays on the near clip plane: lengths count from there.
+        path = light_path_info(s, hit.t - s.ray.tmin);
+        g.path = &path;
+    }
     evaluate_material(scene, base, g, scratch.emplace(), sp.n);
     return *scratch;
 }
@@ -477,7 +507,7 @@ inline void shade_hit(const PathContext& ctx, const PathSampler& ps, PathState& 
 
     std::optional<Material> scratch;
     const Vec3f interpolated_n = sp.n;
-    const Material& mat = material_at(scene, hit, sp, scratch);
+    const Material& mat = material_at(scene, s, hit, sp, scratch);
     if (s.features.pending) {
         record_emission_feature(s.features, mat.emission, s.out.albedo);
         record_surface_features(mat, sp.n, dot(sp.n, sp.wo), scene.camera, s.features, s.out.albedo,

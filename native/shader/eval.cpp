@@ -7,6 +7,7 @@
 #include <cstring>
 
 #include "../scene/scene.h"
+#include "node_adjust.h"
 #include "node_color.h"
 #include "node_math.h"
 #include "program.h"
@@ -141,6 +142,113 @@ void mix(const ShaderInstr& in, const Registers& r) {
     }
 }
 
+// -- Colour adjustments, inputs and bump ----------------------------------------
+
+// Cycles' primitive_tangent for meshes: around the object's generated-
+// coordinate z axis, orthogonal to the shading normal.
+Vec3f geometry_tangent(const Scene& scene, const ShadingGeometry& g) {
+    const Vec3f gen = texture_coordinate(scene, g, TexCoordKind::Generated, 0);
+    Vec3f t{-(gen.y - 0.5f), gen.x - 0.5f, 0.0f};
+    if (const ObjectShading* object = object_of(scene, g)) {
+        const auto& m = object->world_to_object.m;  // normals go to the world by its transpose
+        t = safe_normalize(Vec3f{m[0][0] * t.x + m[1][0] * t.y + m[2][0] * t.z,
+                                 m[0][1] * t.x + m[1][1] * t.y + m[2][1] * t.z,
+                                 m[0][2] * t.x + m[1][2] * t.y + m[2][2] * t.z});
+    }
+    return cross(g.n, safe_normalize(cross(t, g.n)));
+}
+
+void geometry(const Scene& scene, const ShadingGeometry& g, GeometryKind kind, const Registers& r, uint16_t out) {
+    switch (kind) {
+        case GeometryKind::Position: r.set(out, g.p); break;
+        case GeometryKind::Normal: r.set(out, g.n); break;
+        case GeometryKind::Tangent: r.set(out, geometry_tangent(scene, g)); break;
+        case GeometryKind::TrueNormal: r.set(out, g.ng); break;
+        case GeometryKind::Incoming: r.set(out, g.wo); break;
+        // Cycles 3.4 weighs corners (u, v, 1 - u - v); ours (1 - u - v, u, v).
+        case GeometryKind::Parametric: r.set(out, Vec3f{g.v, 1.0f - g.u - g.v, 0.0f}); break;
+        case GeometryKind::Backfacing: r.set(out, g.front ? 0.0f : 1.0f); break;
+        case GeometryKind::Count: break;
+    }
+}
+
+// svm_node_light_path.
+float light_path(const LightPathInfo* path, LightPathKind kind) {
+    if (!path) return 0.0f;
+    auto flag = [&](uint8_t f) { return (path->flags & f) ? 1.0f : 0.0f; };
+    switch (kind) {
+        case LightPathKind::IsCamera: return flag(LightPathInfo::kCamera);
+        case LightPathKind::IsShadow: return flag(LightPathInfo::kShadow);
+        case LightPathKind::IsDiffuse: return flag(LightPathInfo::kDiffuse);
+        case LightPathKind::IsGlossy: return flag(LightPathInfo::kGlossy);
+        case LightPathKind::IsSingular: return flag(LightPathInfo::kSingular);
+        case LightPathKind::IsReflection: return flag(LightPathInfo::kReflect);
+        case LightPathKind::IsTransmission: return flag(LightPathInfo::kTransmit);
+        case LightPathKind::RayLength: return path->ray_length;
+        case LightPathKind::RayDepth: return float(path->depth) + flag(LightPathInfo::kShadow);
+        case LightPathKind::DiffuseDepth: return float(path->diffuse_depth);
+        case LightPathKind::GlossyDepth: return float(path->glossy_depth);
+        case LightPathKind::TransparentDepth: return float(path->transparent_depth);
+        case LightPathKind::TransmissionDepth: return float(path->transmission_depth);
+        case LightPathKind::Count: break;
+    }
+    return 0.0f;
+}
+
+void vector_map_range(const ShaderInstr& in, const Registers& r) {
+    if (in.op == ShaderOp::VectorMapRangeFactor) {
+        const MapRangeType type = MapRangeType(in.mode);
+        const Vec3f v = r.v(in.in[0]), lo = r.v(in.in[1]), hi = r.v(in.in[2]), steps = r.v(in.in[3]);
+        r.set(in.out[0], Vec3f{vector_map_range_factor(type, v.x, lo.x, hi.x, steps.x),
+                               vector_map_range_factor(type, v.y, lo.y, hi.y, steps.y),
+                               vector_map_range_factor(type, v.z, lo.z, hi.z, steps.z)});
+        return;
+    }
+    const bool clamp = (in.mode & kClampBit) != 0;
+    const Vec3f f = r.v(in.in[0]), lo = r.v(in.in[1]), hi = r.v(in.in[2]);
+    r.set(in.out[0], Vec3f{vector_map_range_apply(f.x, lo.x, hi.x, clamp), vector_map_range_apply(f.y, lo.y, hi.y, clamp),
+                           vector_map_range_apply(f.z, lo.z, hi.z, clamp)});
+}
+
+void run_adjust(const Scene& scene, const ShaderProgram& prog, const ShadingGeometry& g, const ShaderInstr& in,
+                const Registers& r) {
+    const bool extrapolate = (in.mode & 1) != 0;
+    switch (in.op) {
+        case ShaderOp::Curves:
+            r.set(in.out[0], svm_curves(prog.data.data() + in.data, kCurveTableSize, r.f(in.in[0]), r.v(in.in[1]),
+                                        extrapolate));
+            break;
+        case ShaderOp::FloatCurve:
+            r.set(in.out[0], svm_float_curve(prog.data.data() + in.data, kCurveTableSize, r.f(in.in[0]),
+                                             r.f(in.in[1]), extrapolate));
+            break;
+        case ShaderOp::HueSatVal: {
+            const Vec3f hsv = r.v(in.in[2]);
+            r.set(in.out[0], svm_hsv(r.f(in.in[0]), r.v(in.in[1]), hsv.x, hsv.y, hsv.z));
+            break;
+        }
+        case ShaderOp::Gamma: r.set(in.out[0], svm_gamma(r.v(in.in[0]), r.f(in.in[1]))); break;
+        case ShaderOp::BrightContrast:
+            r.set(in.out[0], svm_brightness_contrast(r.v(in.in[0]), r.f(in.in[1]), r.f(in.in[2])));
+            break;
+        case ShaderOp::MapRange: {
+            const Vec3f to = r.v(in.in[3]);
+            r.set(in.out[0], svm_map_range(MapRangeType(in.mode), r.f(in.in[0]), r.f(in.in[1]), r.f(in.in[2]), to.x,
+                                           to.y, to.z));
+            break;
+        }
+        case ShaderOp::VectorMapRangeFactor:
+        case ShaderOp::VectorMapRangeApply: vector_map_range(in, r); break;
+        case ShaderOp::ColorConvert: r.set(in.out[0], convert_color(ColorConversion(in.mode), r.v(in.in[0]))); break;
+        case ShaderOp::Fresnel:
+            r.set(in.out[0], svm_fresnel(FresnelKind(in.mode), r.f(in.in[0]), r.v(in.in[1]), g.wo, !g.front));
+            break;
+        case ShaderOp::Geometry: geometry(scene, g, GeometryKind(in.mode), r, in.out[0]); break;
+        case ShaderOp::LightPath: r.set(in.out[0], light_path(g.path, LightPathKind(in.mode))); break;
+        default: break;
+    }
+}
+
 void run(const Scene& scene, const ShaderProgram& prog, const ShadingGeometry& g, const Registers& r) {
     for (const ShaderInstr& in : prog.code) {
         switch (in.op) {
@@ -192,6 +300,19 @@ void run(const Scene& scene, const ShaderProgram& prog, const ShadingGeometry& g
                 r.set(in.out[0], normal_map(scene, g, NormalMapSpace(in.mode), r.f(in.in[0]), r.v(in.in[1])));
                 break;
             case ShaderOp::Clamp: r.set(in.out[0], svm_clamp(in.mode, r.f(in.in[0]), r.f(in.in[1]), r.f(in.in[2]))); break;
+            // Colour adjustments, inputs and bump
+            case ShaderOp::Curves:
+            case ShaderOp::FloatCurve:
+            case ShaderOp::HueSatVal:
+            case ShaderOp::Gamma:
+            case ShaderOp::BrightContrast:
+            case ShaderOp::MapRange:
+            case ShaderOp::VectorMapRangeFactor:
+            case ShaderOp::VectorMapRangeApply:
+            case ShaderOp::ColorConvert:
+            case ShaderOp::Fresnel:
+            case ShaderOp::Geometry:
+            case ShaderOp::LightPath: run_adjust(scene, prog, g, in, r); break;
             case ShaderOp::Count: break;
         }
     }

@@ -9,6 +9,18 @@ namespace coherent {
 struct Scene;
 struct ShaderProgram;
 
+// The path that reached a shading point, for the Light Path node (Cycles'
+// path flags and bounce counters at that point). Filled only for programs
+// that read it (ShaderProgram::uses_light_path).
+struct LightPathInfo {
+    enum Flag : uint8_t {
+        kCamera = 1, kShadow = 2, kDiffuse = 4, kGlossy = 8, kSingular = 16, kReflect = 32, kTransmit = 64
+    };
+    uint8_t flags = kCamera;
+    float ray_length = 0.0f;
+    int depth = 0, diffuse_depth = 0, glossy_depth = 0, transparent_depth = 0, transmission_depth = 0;
+};
+
 // What a program may read at a shading point.
 struct ShadingGeometry {
     uint32_t tri = 0;
@@ -18,6 +30,7 @@ struct ShadingGeometry {
     Vec3f ng{0.0f};            // geometric normal, on that side
     Vec3f wo{0.0f};            // towards where the ray came from
     bool front = true;         // the ray hit the side the winding normal points to
+    const LightPathInfo* path = nullptr;  // null: Light Path outputs read 0
 };
 
 // The closures and emission of `mat` at g: its constants with the program's
