@@ -165,8 +165,8 @@ void geometry(const Scene& scene, const ShadingGeometry& g, GeometryKind kind, c
         case GeometryKind::Tangent: r.set(out, geometry_tangent(scene, g)); break;
         case GeometryKind::TrueNormal: r.set(out, g.ng); break;
         case GeometryKind::Incoming: r.set(out, g.wo); break;
-        // Cycles 3.4 weighs corners (u, v, 1 - u - v); ours (1 - u - v, u, v).
-        case GeometryKind::Parametric: r.set(out, Vec3f{g.v, 1.0f - g.u - g.v, 0.0f}); break;
+        // The weights of corners 0 and 1 (Cycles' 1 - u - v, u: the same convention as ours).
+        case GeometryKind::Parametric: r.set(out, Vec3f{1.0f - g.u - g.v, g.u, 0.0f}); break;
         case GeometryKind::Backfacing: r.set(out, g.front ? 0.0f : 1.0f); break;
         case GeometryKind::Count: break;
     }

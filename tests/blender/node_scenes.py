@@ -562,6 +562,47 @@ def geometry_case(nt):
     return combine(nt, affine(nt, px, 0.4, 0.5), affine(nt, py, 0.4, 0.5), affine(nt, total, 0.5, 0.4))
 
 
+def node_abs(nt, x):
+    n = node(nt, "ShaderNodeMath", operation="ABSOLUTE")
+    nt.links.new(x, n.inputs[0])
+    return n.outputs[0]
+
+
+def geometry_smooth_case(nt):
+    """Parametric and Tangent, which vary inside a pixel (compared within SMOOTH_TOLERANCE)."""
+    geo = node(nt, "ShaderNodeNewGeometry")
+    position = snapped(nt, geo.outputs["Position"], 2.0 / RES)
+    # Pixels on the diagonal where the plane's two triangles meet (x = y)
+    # jump from one triangle's barycentrics to the other's: masked out.
+    px, py, _ = separate(nt, position)
+    gap = node(nt, "ShaderNodeMath", operation="SUBTRACT")
+    nt.links.new(px, gap.inputs[0])
+    nt.links.new(py, gap.inputs[1])
+    off_diagonal = node(nt, "ShaderNodeMath", operation="GREATER_THAN")
+    nt.links.new(node_abs(nt, gap.outputs[0]), off_diagonal.inputs[0])
+    off_diagonal.inputs[1].default_value = 0.03
+    parametric = node(nt, "ShaderNodeVectorMath", operation="SCALE")
+    nt.links.new(geo.outputs["Parametric"], parametric.inputs[0])
+    nt.links.new(off_diagonal.outputs[0], parametric.inputs["Scale"])
+    bx, by, _ = separate(nt, parametric.outputs[0])
+    tx, _, _ = separate(nt, geo.outputs["Tangent"])
+    # Near the tangent's pole (the plane's centre) it turns fast: masked out.
+    radius = node(nt, "ShaderNodeVectorMath", operation="LENGTH")
+    nt.links.new(position, radius.inputs[0])
+    mask = node(nt, "ShaderNodeMath", operation="GREATER_THAN")
+    nt.links.new(radius.outputs["Value"], mask.inputs[0])
+    mask.inputs[1].default_value = 0.5
+    blue = node(nt, "ShaderNodeMath", operation="MULTIPLY")
+    nt.links.new(affine(nt, tx, 0.5, 0.5), blue.inputs[0])
+    nt.links.new(mask.outputs[0], blue.inputs[1])
+    return combine(nt, bx, by, blue.outputs[0])
+
+
+# Cases whose value varies inside a pixel: the largest difference two points
+# of one pixel can make (gradient x pixel diagonal), instead of float rounding.
+SMOOTH_TOLERANCE = {"geometry_smooth": 0.1}
+
+
 def flipped(build):
     """A case seen from the plane's back (rotated half a turn about x)."""
     def wrapped(nt):
@@ -654,6 +695,7 @@ def adjust_cases():
          "layer_weight_back": flipped(layer_weight_case),
          "geometry": geometry_case,
          "geometry_back": flipped(geometry_case),
+         "geometry_smooth": geometry_smooth_case,
          "light_path": light_path_case}
     for kind in ("LINEAR", "STEPPED", "SMOOTHSTEP", "SMOOTHERSTEP"):
         c[f"map_range_{kind.lower()}"] = map_range_case(kind)
