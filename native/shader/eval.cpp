@@ -172,6 +172,22 @@ void geometry(const Scene& scene, const ShadingGeometry& g, GeometryKind kind, c
     }
 }
 
+// A colour attribute interpolated over the triangle (0 where the scene has none).
+void attribute(const Scene& scene, const ShadingGeometry& g, uint32_t layer, const Registers& r, const ShaderInstr& in) {
+    const auto& colors = scene.shading.colors;
+    if (layer >= colors.size() || colors[layer].size() < 12 * size_t(g.tri) + 12) {
+        r.set(in.out[0], Vec3f(0.0f));
+        r.set(in.out[1], 0.0f);
+        return;
+    }
+    const float* c = &colors[layer][12 * size_t(g.tri)];
+    const float w = 1.0f - g.u - g.v;
+    float v[4];
+    for (int k = 0; k < 4; ++k) v[k] = c[k] * w + c[4 + k] * g.u + c[8 + k] * g.v;
+    r.set(in.out[0], Vec3f{v[0], v[1], v[2]});
+    r.set(in.out[1], v[3]);
+}
+
 // svm_node_light_path.
 float light_path(const LightPathInfo* path, LightPathKind kind) {
     if (!path) return 0.0f;
@@ -245,6 +261,7 @@ void run_adjust(const Scene& scene, const ShaderProgram& prog, const ShadingGeom
             break;
         case ShaderOp::Geometry: geometry(scene, g, GeometryKind(in.mode), r, in.out[0]); break;
         case ShaderOp::LightPath: r.set(in.out[0], light_path(g.path, LightPathKind(in.mode))); break;
+        case ShaderOp::Attribute: attribute(scene, g, in.data, r, in); break;
         default: break;
     }
 }
@@ -312,7 +329,8 @@ void run(const Scene& scene, const ShaderProgram& prog, const ShadingGeometry& g
             case ShaderOp::ColorConvert:
             case ShaderOp::Fresnel:
             case ShaderOp::Geometry:
-            case ShaderOp::LightPath: run_adjust(scene, prog, g, in, r); break;
+            case ShaderOp::LightPath:
+            case ShaderOp::Attribute: run_adjust(scene, prog, g, in, r); break;
             case ShaderOp::Count: break;
         }
     }

@@ -46,6 +46,7 @@ OpShape shape_of(const ShaderInstr& in) {
         case ShaderOp::Fresnel: return {{1, 3, 0, 0}, {1, 0}};
         case ShaderOp::Geometry: return {{0, 0, 0, 0}, {in.mode == uint16_t(GeometryKind::Backfacing) ? 1 : 3, 0}};
         case ShaderOp::LightPath: return {{0, 0, 0, 0}, {1, 0}};
+        case ShaderOp::Attribute: return {{0, 0, 0, 0}, {3, 1}};
         case ShaderOp::Count: break;
     }
     return {{0, 0, 0, 0}, {0, 0}};

@@ -62,6 +62,7 @@ enum class ShaderOp : uint16_t {
     Fresnel,              // mode: FresnelKind; in a IOR or blend, b normal; out0 float
     Geometry,             // mode: GeometryKind; out0 vec3 (Backfacing: float)
     LightPath,            // mode: LightPathKind; out0 float (ShadingGeometry::path; 0 without one)
+    Attribute,            // data: colour attribute (SceneShading::color_names); out0 colour, out1 alpha
     Count
 };
 
