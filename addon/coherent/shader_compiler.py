@@ -22,7 +22,7 @@ OPS = ("MATH", "VECTOR_MATH", "MIX_COLOR", "MIX_FLOAT", "MIX_VECTOR", "MAPPING",
        "RGB_TO_BW", "COMBINE", "CHECKER", "IMAGE_TEXTURE", "TEX_COORD", "NORMAL_MAP", "CLAMP")
 # Colour adjustments, inputs and bump
 OPS += ("CURVES", "FLOAT_CURVE", "HUE_SAT_VAL", "GAMMA", "BRIGHT_CONTRAST", "MAP_RANGE", "VECTOR_MAP_RANGE_FACTOR",
-        "VECTOR_MAP_RANGE_APPLY", "COLOR_CONVERT", "FRESNEL", "GEOMETRY", "LIGHT_PATH")
+        "VECTOR_MAP_RANGE_APPLY", "COLOR_CONVERT", "FRESNEL", "GEOMETRY", "LIGHT_PATH", "ATTRIBUTE")
 OP = {name: i for i, name in enumerate(OPS)}
 # Closure fields a program drives: ShaderField in program.h, in order.
 FIELDS = ("base_color", "metallic", "roughness", "specular", "transmission", "ior", "weight", "emission", "normal")
@@ -54,7 +54,7 @@ RAMP_TABLE_SIZE = 256
 MAX_GROUP_DEPTH = 16
 # Ops that read geometry or images: never folded.
 _VARYING_OPS = {OP["TEX_COORD"], OP["IMAGE_TEXTURE"], OP["NORMAL_MAP"], OP["FRESNEL"], OP["GEOMETRY"],
-                OP["LIGHT_PATH"]}
+                OP["LIGHT_PATH"], OP["ATTRIBUTE"]}
 # Cycles' luma of Blender 3.4's scene linear space (RGB to BW, colour -> float conversion).
 _LUMA = (0.212671, 0.71516, 0.072169)
 
@@ -200,13 +200,15 @@ class GraphCompiler:
     warn(text): one warning line (the caller prefixes the material name).
     image_index(image, node) -> scene image index: registers an image.
     uv_index(name) -> UV layer index ("" = the active render UV map).
+    color_index(name) -> colour attribute index ("" = the render colour attribute); None: not exported.
     """
 
-    def __init__(self, builder, warn, image_index, uv_index):
+    def __init__(self, builder, warn, image_index, uv_index, color_index=None):
         self.b = builder
         self.warn = warn
         self.image_index = image_index
         self.uv_index = uv_index
+        self.color_index = color_index
         self._cache = {}          # (group path, node pointer, output name) -> value
         self._warned_types = set()
         self._group_path = ()     # the group nodes we are inside, outermost first
@@ -681,7 +683,30 @@ def _light_path(gc, node, out):
     return gc.b.emit("LIGHT_PATH", LIGHT_PATH_OUTPUTS.index(out.identifier), [], (1,))[0]
 
 
+def _attribute(gc, node, out):
+    """Attribute (geometry type) and Color Attribute nodes: a mesh attribute as per-corner RGBA."""
+    if node.bl_idname == "ShaderNodeVertexColor":
+        name = node.layer_name
+    elif getattr(node, "attribute_type", "GEOMETRY") == "GEOMETRY":
+        name = node.attribute_name
+    else:
+        name = None
+    if name is None or gc.color_index is None:
+        gc.warn(f"attribute node '{node.name}' reads an object or instancer attribute, which is not supported: "
+                f"using 0")
+        return 0.0
+    gc.b.uses.add("colors")
+    color, alpha = gc.b.emit("ATTRIBUTE", 0, [], (3, 1), data=gc.color_index(name))
+    if out.identifier == "Alpha":
+        return alpha
+    if out.identifier == "Fac":  # Cycles: the average of the channels
+        return gc.b.convert(color, 1, as_color=False)
+    return color
+
+
 _HANDLERS.update({
+    "ShaderNodeAttribute": _attribute,
+    "ShaderNodeVertexColor": _attribute,
     "ShaderNodeRGBCurve": _rgb_curves,
     "ShaderNodeVectorCurve": _rgb_curves,
     "ShaderNodeFloatCurve": _float_curve,
