@@ -681,6 +681,54 @@ def _mirror_setup(scene, plane):
     return restore
 
 
+def attribute_material(nt):
+    """Color Attribute (float, corner), Attribute of a byte colour (colour x alpha) and of a face float (Fac)."""
+    col = node(nt, "ShaderNodeVertexColor", layer_name="col_float")
+    byte = node(nt, "ShaderNodeAttribute", attribute_name="col_byte")
+    weight = node(nt, "ShaderNodeAttribute", attribute_name="weight")
+    render = node(nt, "ShaderNodeVertexColor", layer_name="")  # the render colour attribute: col_byte
+    scaled = node(nt, "ShaderNodeVectorMath", operation="SCALE")
+    nt.links.new(byte.outputs["Color"], scaled.inputs[0])
+    nt.links.new(byte.outputs["Alpha"], scaled.inputs["Scale"])
+    total = vector_math(nt, "ADD", col.outputs["Color"], scaled.outputs[0])
+    fac = node(nt, "ShaderNodeVectorMath", operation="SCALE")
+    nt.links.new(render.outputs["Color"], fac.inputs[0])
+    nt.links.new(weight.outputs["Fac"], fac.inputs["Scale"])
+    return vector_math(nt, "ADD", vector_math(nt, "SCALE", total), fac.outputs[0])
+
+
+def attribute_case(nt):
+    return ("custom", attribute_material, _attribute_grid)
+
+
+def _attribute_grid(scene, plane):
+    """An 8 x 8 grid over the plane's square, every face one colour (4 x 4 pixels each)."""
+    k = 8
+    xs = np.linspace(-1.0, 1.0, k + 1)
+    verts = [(x, y, 0.0) for y in xs for x in xs]
+    faces = [(j * (k + 1) + i, j * (k + 1) + i + 1, (j + 1) * (k + 1) + i + 1, (j + 1) * (k + 1) + i)
+             for j in range(k) for i in range(k)]
+    mesh = bpy.data.meshes.new("grid")
+    mesh.from_pydata(verts, [], faces)
+    rng = np.random.default_rng(11)
+    face_rgba = rng.random((k * k, 4), dtype=np.float32)
+    corner = np.repeat(face_rgba, 4, axis=0)
+    mesh.color_attributes.new("col_float", "FLOAT_COLOR", "CORNER").data.foreach_set("color", corner.ravel())
+    byte = mesh.color_attributes.new("col_byte", "BYTE_COLOR", "CORNER")
+    byte.data.foreach_set("color_srgb", corner[:, [2, 0, 1, 3]].ravel())
+    mesh.color_attributes.render_color_index = 1
+    mesh.attributes.new("weight", "FLOAT", "FACE").data.foreach_set("value", face_rgba[:, 0] * 2.0)
+    grid = bpy.data.objects.new("grid", mesh)
+    scene.collection.objects.link(grid)
+    mesh.materials.append(plane.material_slots[0].material)
+    plane.hide_render = True
+
+    def restore():
+        bpy.data.objects.remove(grid)
+        plane.hide_render = False
+    return restore
+
+
 def adjust_cases():
     c = {"curves_rgb_extrapolated": rgb_curves_case("EXTRAPOLATED"),
          "curves_rgb_horizontal": rgb_curves_case("HORIZONTAL"),
@@ -696,7 +744,8 @@ def adjust_cases():
          "geometry": geometry_case,
          "geometry_back": flipped(geometry_case),
          "geometry_smooth": geometry_smooth_case,
-         "light_path": light_path_case}
+         "light_path": light_path_case,
+         "attributes": attribute_case}
     for kind in ("LINEAR", "STEPPED", "SMOOTHSTEP", "SMOOTHERSTEP"):
         c[f"map_range_{kind.lower()}"] = map_range_case(kind)
     return c
