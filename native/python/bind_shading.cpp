@@ -163,7 +163,10 @@ std::shared_ptr<const ShaderProgram> program_from_object(const PyScene& self, co
         p->drives_emission = p->drives_emission || o.field == ShaderField::Emission;
         p->drives_normal = p->drives_normal || o.field == ShaderField::Normal;
     }
-    for (const ShaderInstr& in : p->code) p->uses_light_path = p->uses_light_path || in.op == ShaderOp::LightPath;
+    for (const ShaderInstr& in : p->code) {
+        p->uses_light_path = p->uses_light_path || in.op == ShaderOp::LightPath;
+        p->uses_bump = p->uses_bump || in.op == ShaderOp::Bump;
+    }
     const SceneShading& sh = self.scene.shading;
     const std::string error = p->validate(sh.textures ? sh.textures->size() : 0, sh.uv_names.size());
     if (!error.empty()) throw py::value_error("program: " + error);

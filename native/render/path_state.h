@@ -301,11 +301,20 @@ inline LightPathInfo light_path_info(const PathState& s, float t) {
     return info;
 }
 
+// Cycles' compact ray differential dP at a hit: the width a pixel covers
+// there, as seen from the camera (later bounces keep the camera's spread).
+inline float pixel_footprint(const Scene& scene, const RenderSettings& rs, const Vec3f& p) {
+    const Camera& cam = scene.camera;
+    const float pixel = cam.half_width / float(std::max(rs.width, 1)) + cam.half_height / float(std::max(rs.height, 1));
+    return cam.projection == Projection::Orthographic ? pixel : pixel * length(p - cam.position);
+}
+
 // The material at sp: its constants, or for a node graph with non-constant
 // inputs what its shader program computes there (built in `scratch`; a
 // normal map also replaces sp.n). Constant materials take the first return.
-COHERENT_ALWAYS_INLINE const Material& material_at(const Scene& scene, const PathState& s, const Hit& hit,
+COHERENT_ALWAYS_INLINE const Material& material_at(const PathContext& ctx, const PathState& s, const Hit& hit,
                                                     SurfacePoint& sp, std::optional<Material>& scratch) {
+    const Scene& scene = *ctx.scene;
     const Material& base = scene.materials[sp.material];
     if (!base.program) return base;
     ShadingGeometry g;
@@ -323,6 +332,7 @@ COHERENT_ALWAYS_INLINE const Material& material_at(const Scene& scene, const Pat
         path = light_path_info(s, hit.t - s.ray.tmin);
         g.path = &path;
     }
+    if (base.program->uses_bump) g.footprint = pixel_footprint(scene, *ctx.settings, sp.p);
     evaluate_material(scene, base, g, scratch.emplace(), sp.n);
     return *scratch;
 }
@@ -507,7 +517,7 @@ inline void shade_hit(const PathContext& ctx, const PathSampler& ps, PathState& 
 
     std::optional<Material> scratch;
     const Vec3f interpolated_n = sp.n;
-    const Material& mat = material_at(scene, s, hit, sp, scratch);
+    const Material& mat = material_at(ctx, s, hit, sp, scratch);
     if (s.features.pending) {
         record_emission_feature(s.features, mat.emission, s.out.albedo);
         record_surface_features(mat, sp.n, dot(sp.n, sp.wo), scene.camera, s.features, s.out.albedo,

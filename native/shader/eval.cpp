@@ -188,6 +188,61 @@ void attribute(const Scene& scene, const ShadingGeometry& g, uint32_t layer, con
     r.set(in.out[1], v[3]);
 }
 
+// Cycles' make_orthonormals.
+void orthonormals(const Vec3f& n, Vec3f& a, Vec3f& b) {
+    if (n.x != n.y || n.x != n.z) a = Vec3f{n.z - n.y, n.x - n.z, n.y - n.x};
+    else a = Vec3f{n.z - n.y, n.x + n.z, -n.y - n.x};
+    a = normalize(a);
+    b = cross(n, a);
+}
+
+// Cycles' differential_from_compact(Ng, dP): the offsets Bump samples the height at.
+void bump_offsets(const ShadingGeometry& g, Vec3f& dx, Vec3f& dy) {
+    orthonormals(g.ng, dx, dy);
+    dx = dx * g.footprint;
+    dy = dy * g.footprint;
+}
+
+// g moved along the surface by Bump's offset `axis` (1: dx, 2: dy), its
+// barycentrics moved with it (Cycles' du/dv differentials).
+ShadingGeometry bump_shifted(const Scene& scene, const ShadingGeometry& g, int axis) {
+    if (axis == 0) return g;
+    Vec3f dx, dy;
+    bump_offsets(g, dx, dy);
+    const Vec3f d = axis == 1 ? dx : dy;
+    ShadingGeometry s = g;
+    s.p = g.p + d;
+    if (size_t(g.tri) * 3 + 3 > scene.vertices.size()) return s;
+    const Vec3f* v = &scene.vertices[3 * size_t(g.tri)];
+    const Vec3f e1 = v[1] - v[0], e2 = v[2] - v[0];
+    // Solve d = du e1 + dv e2 in the plane of the triangle (d lies in it).
+    const float d11 = dot(e1, e1), d12 = dot(e1, e2), d22 = dot(e2, e2);
+    const float det = d11 * d22 - d12 * d12;
+    if (!(std::fabs(det) > 0.0f)) return s;
+    const float b1 = dot(d, e1), b2 = dot(d, e2);
+    s.u = g.u + (b1 * d22 - b2 * d12) / det;
+    s.v = g.v + (b2 * d11 - b1 * d12) / det;
+    return s;
+}
+
+// svm_node_set_bump (world space): the normal of the height field sampled
+// at the point and one footprint along dx and dy.
+Vec3f bump_normal(const ShadingGeometry& g, bool invert, float strength, float scale, const Vec3f& normal_in,
+                  const Vec3f& heights) {
+    Vec3f dx, dy;
+    bump_offsets(g, dx, dy);
+    const Vec3f rx = cross(dy, normal_in), ry = cross(normal_in, dx);
+    const float det = dot(dx, rx);
+    const Vec3f surfgrad = (heights.y - heights.x) * rx + (heights.z - heights.x) * ry;
+    const float absdet = std::fabs(det);
+    if (invert) scale *= -1.0f;
+    strength = std::max(strength, 0.0f);
+    const float sign = det > 0.0f ? 1.0f : (det < 0.0f ? -1.0f : 0.0f);
+    Vec3f out = safe_normalize(absdet * normal_in - scale * sign * surfgrad);
+    out = is_black(out) ? normal_in : normalize(strength * out + (1.0f - strength) * normal_in);
+    return ensure_valid_reflection(g.ng, g.wo, out);
+}
+
 // svm_node_light_path.
 float light_path(const LightPathInfo* path, LightPathKind kind) {
     if (!path) return 0.0f;
@@ -259,9 +314,19 @@ void run_adjust(const Scene& scene, const ShaderProgram& prog, const ShadingGeom
         case ShaderOp::Fresnel:
             r.set(in.out[0], svm_fresnel(FresnelKind(in.mode), r.f(in.in[0]), r.v(in.in[1]), g.wo, !g.front));
             break;
-        case ShaderOp::Geometry: geometry(scene, g, GeometryKind(in.mode), r, in.out[0]); break;
+        case ShaderOp::Geometry:
+            geometry(scene, bump_shifted(scene, g, in.mode >> kBumpAxisShift), GeometryKind(in.mode & 0xFF), r,
+                     in.out[0]);
+            break;
         case ShaderOp::LightPath: r.set(in.out[0], light_path(g.path, LightPathKind(in.mode))); break;
-        case ShaderOp::Attribute: attribute(scene, g, in.data, r, in); break;
+        case ShaderOp::Attribute: attribute(scene, bump_shifted(scene, g, in.mode), in.data, r, in); break;
+        case ShaderOp::BumpTexCoord:
+            r.set(in.out[0], texture_coordinate(scene, bump_shifted(scene, g, in.mode >> kBumpAxisShift),
+                                                TexCoordKind(in.mode & 0xFF), in.data));
+            break;
+        case ShaderOp::Bump:
+            r.set(in.out[0], bump_normal(g, in.mode & 1, r.f(in.in[0]), r.f(in.in[1]), r.v(in.in[2]), r.v(in.in[3])));
+            break;
         default: break;
     }
 }
@@ -330,7 +395,9 @@ void run(const Scene& scene, const ShaderProgram& prog, const ShadingGeometry& g
             case ShaderOp::Fresnel:
             case ShaderOp::Geometry:
             case ShaderOp::LightPath:
-            case ShaderOp::Attribute: run_adjust(scene, prog, g, in, r); break;
+            case ShaderOp::Attribute:
+            case ShaderOp::BumpTexCoord:
+            case ShaderOp::Bump: run_adjust(scene, prog, g, in, r); break;
             case ShaderOp::Count: break;
         }
     }

@@ -31,6 +31,9 @@ struct ShadingGeometry {
     Vec3f wo{0.0f};            // towards where the ray came from
     bool front = true;         // the ray hit the side the winding normal points to
     const LightPathInfo* path = nullptr;  // null: Light Path outputs read 0
+    // Cycles' compact dP: the width the pixel's ray covers at p, the step
+    // of Bump's offsets. Filled only for programs with a Bump instruction.
+    float footprint = 0.0f;
 };
 
 // The closures and emission of `mat` at g: its constants with the program's

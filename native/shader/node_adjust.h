@@ -204,6 +204,51 @@ inline float fresnel_dielectric_cos(float cosi, float eta) {
     return 1.0f;  // total internal reflection
 }
 
+namespace detail {
+inline float safe_sqrt(float x) { return std::sqrt(std::max(x, 0.0f)); }
+}  // namespace detail
+
+// Cycles 3.4's ensure_valid_reflection: N tilted towards Ng just enough that
+// the mirror reflection of I about it stays above the surface.
+inline Vec3f ensure_valid_reflection(const Vec3f& ng, const Vec3f& i, const Vec3f& n) {
+    const Vec3f r = 2.0f * dot(n, i) * n - i;
+    const float threshold = std::min(0.9f * dot(ng, i), 0.01f);
+    if (dot(ng, r) >= threshold) return n;
+    // In the frame (X, Ng) of the plane holding N, solve for N'.z such that
+    // dot(reflect(I, N'), Ng) = threshold; two roots can be valid.
+    const float n_dot_ng = dot(n, ng);
+    const Vec3f x = normalize(n - n_dot_ng * ng);
+    const float ix = dot(i, x), iz = dot(i, ng);
+    const float ix2 = ix * ix, iz2 = iz * iz;
+    const float a = ix2 + iz2;
+    const float b = detail::safe_sqrt(ix2 * (a - threshold * threshold));
+    const float c = iz * threshold + a;
+    const float fac = 0.5f / a;
+    const float n1_z2 = fac * (b + c), n2_z2 = fac * (-b + c);
+    bool valid1 = n1_z2 > 1e-5f && n1_z2 <= 1.0f + 1e-5f;
+    bool valid2 = n2_z2 > 1e-5f && n2_z2 <= 1.0f + 1e-5f;
+    float nx, nz;
+    if (valid1 && valid2) {
+        const float n1x = detail::safe_sqrt(1.0f - n1_z2), n1z = detail::safe_sqrt(n1_z2);
+        const float n2x = detail::safe_sqrt(1.0f - n2_z2), n2z = detail::safe_sqrt(n2_z2);
+        const float r1 = 2.0f * (n1x * ix + n1z * iz) * n1z - iz;
+        const float r2 = 2.0f * (n2x * ix + n2z * iz) * n2z - iz;
+        valid1 = r1 >= 1e-5f;
+        valid2 = r2 >= 1e-5f;
+        // Both valid: the shallower reflection is closer to the input.
+        const bool first = (valid1 && valid2) ? r1 < r2 : r1 > r2;
+        nx = first ? n1x : n2x;
+        nz = first ? n1z : n2z;
+    } else if (valid1 || valid2) {
+        const float nz2 = valid1 ? n1_z2 : n2_z2;
+        nx = detail::safe_sqrt(1.0f - nz2);
+        nz = detail::safe_sqrt(nz2);
+    } else {
+        return ng;
+    }
+    return nx * x + nz * ng;
+}
+
 // svm_node_fresnel and svm_node_layer_weight. `wi` points back along the
 // ray, `backfacing`: the ray hit the side opposite the winding normal.
 inline float svm_fresnel(FresnelKind kind, float x, const Vec3f& n, const Vec3f& wi, bool backfacing) {

@@ -44,9 +44,11 @@ OpShape shape_of(const ShaderInstr& in) {
         case ShaderOp::VectorMapRangeApply: return {{3, 3, 3, 0}, {3, 0}};
         case ShaderOp::ColorConvert: return {{3, 0, 0, 0}, {3, 0}};
         case ShaderOp::Fresnel: return {{1, 3, 0, 0}, {1, 0}};
-        case ShaderOp::Geometry: return {{0, 0, 0, 0}, {in.mode == uint16_t(GeometryKind::Backfacing) ? 1 : 3, 0}};
+        case ShaderOp::Geometry: return {{0, 0, 0, 0}, {(in.mode & 0xFF) == uint16_t(GeometryKind::Backfacing) ? 1 : 3, 0}};
         case ShaderOp::LightPath: return {{0, 0, 0, 0}, {1, 0}};
         case ShaderOp::Attribute: return {{0, 0, 0, 0}, {3, 1}};
+        case ShaderOp::BumpTexCoord: return {{0, 0, 0, 0}, {3, 0}};
+        case ShaderOp::Bump: return {{1, 1, 3, 3}, {3, 0}};
         case ShaderOp::Count: break;
     }
     return {{0, 0, 0, 0}, {0, 0}};
@@ -72,7 +74,11 @@ bool mode_valid(const ShaderInstr& in) {
         case ShaderOp::VectorMapRangeApply: return (in.mode & ~kClampBit) == 0;
         case ShaderOp::ColorConvert: return in.mode < uint16_t(shader::ColorConversion::Count);
         case ShaderOp::Fresnel: return in.mode < uint16_t(shader::FresnelKind::Count);
-        case ShaderOp::Geometry: return in.mode < uint16_t(GeometryKind::Count);
+        case ShaderOp::Geometry: return low < uint16_t(GeometryKind::Count) && (in.mode >> kBumpAxisShift) <= 2;
+        case ShaderOp::Attribute: return in.mode <= 2;
+        case ShaderOp::BumpTexCoord:
+            return low <= uint16_t(TexCoordKind::Incoming) && (in.mode >> kBumpAxisShift) <= 2;
+        case ShaderOp::Bump: return in.mode <= 1;
         case ShaderOp::LightPath: return in.mode < uint16_t(LightPathKind::Count);
         default: return in.op < ShaderOp::Count;
     }
@@ -104,7 +110,8 @@ std::string ShaderProgram::validate(size_t image_count, size_t uv_layer_count) c
             return where(i) + "curve table outside the data";
         if (in.op == ShaderOp::ImageTexture && in.data >= image_count)
             return where(i) + "image " + std::to_string(in.data) + " does not exist";
-        if (in.op == ShaderOp::TexCoord && in.mode == uint16_t(TexCoordKind::Uv) && in.data >= uv_layer_count)
+        if ((in.op == ShaderOp::TexCoord || in.op == ShaderOp::BumpTexCoord) &&
+            (in.mode & 0xFF) == uint16_t(TexCoordKind::Uv) && in.data >= uv_layer_count)
             return where(i) + "UV layer " + std::to_string(in.data) + " does not exist";
     }
     for (size_t i = 0; i < outputs.size(); ++i) {

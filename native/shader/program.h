@@ -60,9 +60,11 @@ enum class ShaderOp : uint16_t {
     VectorMapRangeApply,  // mode: kClampBit; in a factor, b to min, c to max (vec3); out0 vec3
     ColorConvert,         // mode: ColorConversion; in a vec3; out0 vec3
     Fresnel,              // mode: FresnelKind; in a IOR or blend, b normal; out0 float
-    Geometry,             // mode: GeometryKind; out0 vec3 (Backfacing: float)
+    Geometry,             // mode: GeometryKind | bump axis << 8; out0 vec3 (Backfacing: float)
     LightPath,            // mode: LightPathKind; out0 float (ShadingGeometry::path; 0 without one)
-    Attribute,            // data: colour attribute (SceneShading::color_names); out0 colour, out1 alpha
+    Attribute,            // mode: bump axis; data: colour attribute (SceneShading::color_names); out0 colour, out1 alpha
+    BumpTexCoord,         // mode: TexCoordKind | bump axis << 8; data: UV layer; out0 vec3 (TexCoord at a bump offset)
+    Bump,                 // mode: 1 = invert; in a strength, b distance, c normal, d heights (centre, +dx, +dy); out0 vec3
     Count
 };
 
@@ -81,6 +83,9 @@ enum class LightPathKind : uint16_t {
     IsCamera, IsShadow, IsDiffuse, IsGlossy, IsSingular, IsReflection, IsTransmission, RayLength, RayDepth,
     DiffuseDepth, GlossyDepth, TransparentDepth, TransmissionDepth, Count
 };
+// Bump offsets (Geometry, Attribute, BumpTexCoord): 0 the shading point, 1 and 2
+// one footprint along Cycles' dP.dx and dP.dy, where Bump evaluates the height again.
+constexpr int kBumpAxisShift = 8;
 // Curve tables in `data` (Curves, FloatCurve): 2 floats of x range, then the entries.
 constexpr int kCurveTableSize = 256;
 
@@ -138,6 +143,7 @@ struct ShaderProgram {
     bool uses_uv = false, uses_tangents = false, uses_object_space = false;
     bool drives_emission = false, drives_normal = false;
     bool uses_light_path = false;  // a LightPath instruction: shading fills ShadingGeometry::path
+    bool uses_bump = false;        // a Bump instruction: shading fills ShadingGeometry::footprint
 
     // Empty when the invariants above hold, else what is wrong (for an
     // error that names the material). `image_count`: images in the scene,
