@@ -22,7 +22,8 @@ OPS = ("MATH", "VECTOR_MATH", "MIX_COLOR", "MIX_FLOAT", "MIX_VECTOR", "MAPPING",
        "RGB_TO_BW", "COMBINE", "CHECKER", "IMAGE_TEXTURE", "TEX_COORD", "NORMAL_MAP", "CLAMP")
 # Colour adjustments, inputs and bump
 OPS += ("CURVES", "FLOAT_CURVE", "HUE_SAT_VAL", "GAMMA", "BRIGHT_CONTRAST", "MAP_RANGE", "VECTOR_MAP_RANGE_FACTOR",
-        "VECTOR_MAP_RANGE_APPLY", "COLOR_CONVERT", "FRESNEL", "GEOMETRY", "LIGHT_PATH", "ATTRIBUTE")
+        "VECTOR_MAP_RANGE_APPLY", "COLOR_CONVERT", "FRESNEL", "GEOMETRY", "LIGHT_PATH", "ATTRIBUTE",
+        "BUMP_TEX_COORD", "BUMP")
 OP = {name: i for i, name in enumerate(OPS)}
 # Closure fields a program drives: ShaderField in program.h, in order.
 FIELDS = ("base_color", "metallic", "roughness", "specular", "transmission", "ior", "weight", "emission", "normal")
@@ -54,7 +55,7 @@ RAMP_TABLE_SIZE = 256
 MAX_GROUP_DEPTH = 16
 # Ops that read geometry or images: never folded.
 _VARYING_OPS = {OP["TEX_COORD"], OP["IMAGE_TEXTURE"], OP["NORMAL_MAP"], OP["FRESNEL"], OP["GEOMETRY"],
-                OP["LIGHT_PATH"], OP["ATTRIBUTE"]}
+                OP["LIGHT_PATH"], OP["ATTRIBUTE"], OP["BUMP_TEX_COORD"], OP["BUMP"]}
 # Cycles' luma of Blender 3.4's scene linear space (RGB to BW, colour -> float conversion).
 _LUMA = (0.212671, 0.71516, 0.072169)
 
@@ -213,6 +214,7 @@ class GraphCompiler:
         self._warned_types = set()
         self._group_path = ()     # the group nodes we are inside, outermost first
         self.consumer = ""        # which closure input is being compiled, for warnings
+        self.bump_axis = 0        # compiling a Bump height at offset 1 (dx) or 2 (dy): position reads shift
 
     # -- sockets and links ------------------------------------------------------------
 
@@ -268,7 +270,7 @@ class GraphCompiler:
     def output_value(self, node, out):
         if isinstance(node, _Resolved):
             return node.value
-        key = (tuple(g.as_pointer() for g in self._group_path), node.as_pointer(), out.identifier)
+        key = (tuple(g.as_pointer() for g in self._group_path), node.as_pointer(), out.identifier, self.bump_axis)
         if key not in self._cache:
             self._cache[key] = self._compile_node(node, out)
         return self._cache[key]
@@ -443,6 +445,8 @@ def _coordinate(gc, kind, uv_name):
         gc.b.uses.add("uv")
     else:
         gc.b.uses.add("objects")
+    if gc.bump_axis:
+        return gc.b.emit("BUMP_TEX_COORD", kind | gc.bump_axis << BUMP_AXIS_SHIFT, [], (3,), data=data)[0]
     return gc.b.emit("TEX_COORD", kind, [], (3,), data=data)[0]
 
 
@@ -545,6 +549,7 @@ _HANDLERS = {
 # blender/shader.cpp); the formulas are native/shader/node_adjust.h.
 
 CURVE_TABLE_SIZE = 256
+BUMP_AXIS_SHIFT = 8
 MAP_RANGE_TYPES = ("LINEAR", "STEPPED", "SMOOTHSTEP", "SMOOTHERSTEP")
 COLOR_CONVERSIONS = ("RGB_TO_HSV", "HSV_TO_RGB", "RGB_TO_HSL", "HSL_TO_RGB")
 FRESNEL_KINDS = {"Fresnel": 0, "Layer Fresnel": 1, "Layer Facing": 2}
@@ -645,7 +650,7 @@ def _geometry_output(gc, name):
     kind = GEOMETRY_OUTPUTS.index(name)
     if name == "Tangent":
         gc.b.uses.add("objects")  # around the generated coordinates' axis, in object space
-    return gc.b.emit("GEOMETRY", kind, [], (1 if name == "Backfacing" else 3,))[0]
+    return gc.b.emit("GEOMETRY", kind | gc.bump_axis << BUMP_AXIS_SHIFT, [], (1 if name == "Backfacing" else 3,))[0]
 
 
 def _normal_input(gc, node):
@@ -696,7 +701,7 @@ def _attribute(gc, node, out):
                 f"using 0")
         return 0.0
     gc.b.uses.add("colors")
-    color, alpha = gc.b.emit("ATTRIBUTE", 0, [], (3, 1), data=gc.color_index(name))
+    color, alpha = gc.b.emit("ATTRIBUTE", gc.bump_axis, [], (3, 1), data=gc.color_index(name))
     if out.identifier == "Alpha":
         return alpha
     if out.identifier == "Fac":  # Cycles: the average of the channels
@@ -704,7 +709,29 @@ def _attribute(gc, node, out):
     return color
 
 
+def _bump(gc, node, out):
+    """Cycles' Bump: the height compiled three times, at the point and one ray footprint along dx and dy."""
+    normal = _normal_input(gc, node)
+    height = node.inputs["Height"]
+    if gc._follow(height) is None:
+        return normal  # BumpNode::constant_fold: nothing to perturb
+    if gc.bump_axis:
+        gc.warn(f"Bump '{node.name}' inside another Bump's height: using its normal input")
+        return normal
+    heights = []
+    for axis in (0, 1, 2):
+        gc.bump_axis = axis
+        try:
+            heights.append(gc.input_value(height, 1))
+        finally:
+            gc.bump_axis = 0
+    return gc.b.emit("BUMP", 1 if node.invert else 0, [(_inp(gc, node, "Strength", 1), 1),
+                                                      (_inp(gc, node, "Distance", 1), 1), (normal, 3),
+                                                      (_packed(gc, heights), 3)], (3,))[0]
+
+
 _HANDLERS.update({
+    "ShaderNodeBump": _bump,
     "ShaderNodeAttribute": _attribute,
     "ShaderNodeVertexColor": _attribute,
     "ShaderNodeRGBCurve": _rgb_curves,
