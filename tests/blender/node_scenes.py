@@ -600,7 +600,7 @@ def geometry_smooth_case(nt):
 
 # Cases whose value varies inside a pixel: the largest difference two points
 # of one pixel can make (gradient x pixel diagonal), instead of float rounding.
-SMOOTH_TOLERANCE = {"geometry_smooth": 0.1}
+SMOOTH_TOLERANCE = {"geometry_smooth": 0.1, "bump_wavy": 0.05}
 
 
 def flipped(build):
@@ -729,6 +729,65 @@ def _attribute_grid(scene, plane):
     return restore
 
 
+def bump_case(height, invert=False, strength=1.0, distance=1.0):
+    """A diffuse plane lit by a point-like sun (direct light only), its normal from a Bump node."""
+    def build(nt):
+        return ("lit", lambda scene, material: _build_bump(scene, material, height, invert, strength, distance))
+    return build
+
+
+def _build_bump(scene, material, height, invert, strength, distance):
+    nt = material.node_tree
+    nt.nodes.clear()
+    out = nt.nodes.new("ShaderNodeOutputMaterial")
+    diffuse = node(nt, "ShaderNodeBsdfDiffuse")
+    diffuse.inputs["Color"].default_value = (0.8, 0.7, 0.6, 1.0)
+    nt.links.new(diffuse.outputs[0], out.inputs["Surface"])
+    bump = node(nt, "ShaderNodeBump", invert=invert)
+    bump.inputs["Strength"].default_value = strength
+    bump.inputs["Distance"].default_value = distance
+    nt.links.new(height(nt), bump.inputs["Height"])
+    nt.links.new(bump.outputs[0], diffuse.inputs["Normal"])
+    if "sun" not in bpy.data.objects:
+        sun = bpy.data.objects.new("sun", bpy.data.lights.new("sun", "SUN"))
+        sun.data.energy = 2.0
+        sun.data.angle = 0.0
+        sun.rotation_euler = (0.3, 0.2, 0.0)
+        scene.collection.objects.link(sun)
+    scene.cycles.max_bounces = 0
+    scene.coherent.max_bounces = 0
+
+
+def position_height(nt):
+    """A plane's height rising along (3, -2): linear, so its finite differences are exact."""
+    d = node(nt, "ShaderNodeVectorMath", operation="DOT_PRODUCT")
+    nt.links.new(node(nt, "ShaderNodeNewGeometry").outputs["Position"], d.inputs[0])
+    d.inputs[1].default_value = (3.0, -2.0, 0.0)
+    return d.outputs["Value"]
+
+
+def uv_height(nt):
+    u, v, _ = separate(nt, node(nt, "ShaderNodeTexCoord").outputs["UV"])
+    m = node(nt, "ShaderNodeMath", operation="SUBTRACT")
+    nt.links.new(affine(nt, u, 8.0, 0.0), m.inputs[0])
+    nt.links.new(affine(nt, v, 5.0, 0.0), m.inputs[1])
+    return m.outputs[0]
+
+
+def wavy_height(nt):
+    """sin(4 x) + y^2: curved, so the normal changes inside a pixel (SMOOTH_TOLERANCE)."""
+    x, y, _ = separate(nt, node(nt, "ShaderNodeTexCoord").outputs["Object"])
+    s = node(nt, "ShaderNodeMath", operation="SINE")
+    nt.links.new(affine(nt, x, 4.0, 0.0), s.inputs[0])
+    sq = node(nt, "ShaderNodeMath", operation="MULTIPLY")
+    nt.links.new(y, sq.inputs[0])
+    nt.links.new(y, sq.inputs[1])
+    add = node(nt, "ShaderNodeMath", operation="ADD")
+    nt.links.new(s.outputs[0], add.inputs[0])
+    nt.links.new(sq.outputs[0], add.inputs[1])
+    return add.outputs[0]
+
+
 def adjust_cases():
     c = {"curves_rgb_extrapolated": rgb_curves_case("EXTRAPOLATED"),
          "curves_rgb_horizontal": rgb_curves_case("HORIZONTAL"),
@@ -745,7 +804,10 @@ def adjust_cases():
          "geometry_back": flipped(geometry_case),
          "geometry_smooth": geometry_smooth_case,
          "light_path": light_path_case,
-         "attributes": attribute_case}
+         "attributes": attribute_case,
+         "bump_position": bump_case(position_height, distance=0.3),
+         "bump_uv_inverted": bump_case(uv_height, invert=True, strength=0.7, distance=0.05),
+         "bump_wavy": bump_case(wavy_height, distance=0.2)}
     for kind in ("LINEAR", "STEPPED", "SMOOTHSTEP", "SMOOTHERSTEP"):
         c[f"map_range_{kind.lower()}"] = map_range_case(kind)
     return c
@@ -920,6 +982,8 @@ def main():
         if isinstance(driver, tuple) and driver[0] == "custom":  # (custom, material builder, scene setup)
             nt.links.new(driver[1](nt), emission.inputs["Color"])
             restore = driver[2](scene, plane)
+        elif isinstance(driver, tuple) and driver[0] == "lit":  # (lit, builder of its own lit material)
+            driver[1](scene, material)
         elif isinstance(driver, tuple):  # a lit case that builds its own material
             build_normal_map(scene, material, driver[1])
         else:
