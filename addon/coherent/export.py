@@ -59,14 +59,16 @@ class MeshArrays:
 
 
 class ShadingRequest(tuple):
-    """What the materials' shader programs read from meshes: (uv_names, tangent_uv, objects)."""
+    """What the materials' shader programs read from meshes: (uv_names, tangent_uv, objects, color_names)."""
 
     @classmethod
     def of(cls, converter):
-        if not converter.uv_names and "objects" not in converter.uses and "tangents" not in converter.uses:
+        color_names = tuple(getattr(converter, "color_names", ()))
+        if not converter.uv_names and not color_names and "objects" not in converter.uses and \
+                "tangents" not in converter.uses:
             return None
         tangent_uv = converter.tangent_uv if "tangents" in converter.uses else None
-        return cls((tuple(converter.uv_names), tangent_uv, "objects" in converter.uses))
+        return cls((tuple(converter.uv_names), tangent_uv, "objects" in converter.uses, color_names))
 
 
 def _uv_layer(mesh, name):
@@ -75,9 +77,74 @@ def _uv_layer(mesh, name):
     return next((layer for layer in mesh.uv_layers if layer.active_render), None)
 
 
+def _srgb_to_linear(c):
+    return np.where(c < 0.04045, np.maximum(c, 0.0) / 12.92, ((c + 0.055) / 1.055) ** 2.4).astype(np.float32)
+
+
+def _named_attribute(mesh, name):
+    if name:
+        return mesh.attributes.get(name)
+    colors = mesh.color_attributes  # "": the colour attribute set for rendering
+    index = getattr(colors, "render_color_index", -1)
+    return colors[index] if 0 <= index < len(colors) else None
+
+
+# Attribute data types: (foreach_get property, components).
+_ATTRIBUTE_LAYOUT = {"FLOAT_COLOR": ("color", 4), "BYTE_COLOR": ("color_srgb", 4), "FLOAT": ("value", 1),
+                     "INT": ("value", 1), "FLOAT_VECTOR": ("vector", 3), "FLOAT2": ("vector", 2)}
+
+
+def _attribute_rgba(mesh, name):
+    """(values (K, 4) linear RGBA, domain) of a named attribute or UV map; None if the mesh has neither."""
+    attribute = _named_attribute(mesh, name)
+    if attribute is None:
+        layer = mesh.uv_layers.get(name) if name else None
+        if layer is None:
+            return None
+        attribute, layout, domain = layer, ("uv", 2), "CORNER"
+    else:
+        layout, domain = _ATTRIBUTE_LAYOUT.get(attribute.data_type), attribute.domain
+        if layout is None:
+            return None
+    prop, k = layout
+    flat = np.empty(len(attribute.data) * k, dtype=np.float32)
+    attribute.data.foreach_get(prop, flat)
+    flat = flat.reshape(-1, k)
+    rgba = np.zeros((flat.shape[0], 4), dtype=np.float32)
+    rgba[:, 3] = 1.0
+    if k == 1:
+        rgba[:, :3] = flat  # Cycles: a float attribute reads as grey
+    else:
+        rgba[:, :k] = flat
+    if getattr(attribute, "data_type", "") == "BYTE_COLOR":  # Cycles decodes sRGB bytes per corner
+        rgba[:, :3] = _srgb_to_linear(rgba[:, :3])
+    return rgba, domain
+
+
+def _corner_colors(mesh, name, loops, warnings):
+    """(M, 3, 4) per-corner RGBA of attribute `name` for add_mesh's `colors`; None if absent."""
+    found = _attribute_rgba(mesh, name)
+    if found is None:
+        return None
+    rgba, domain = found
+    m = loops.shape[0] // 3
+    if domain == "CORNER":
+        return rgba[loops].reshape(m, 3, 4)
+    if domain == "POINT":
+        vertex_of_loop = np.empty(len(mesh.loops), dtype=np.int32)
+        mesh.loops.foreach_get("vertex_index", vertex_of_loop)
+        return rgba[vertex_of_loop[loops]].reshape(m, 3, 4)
+    if domain == "FACE":
+        polygon = np.empty(m, dtype=np.int32)
+        mesh.loop_triangles.foreach_get("polygon_index", polygon)
+        return np.repeat(rgba[polygon][:, None, :], 3, axis=1)
+    warnings.append(f"Mesh '{mesh.name}': attribute '{name}' on the {domain.lower()} domain is not supported")
+    return None
+
+
 def shading_arrays(mesh, request, warnings):
     """add_mesh's uvs / tangents / generated arguments for `request` (foreach_get, no Python loops)."""
-    uv_names, tangent_uv, objects = request
+    uv_names, tangent_uv, objects, color_names = request
     tris = mesh.loop_triangles
     m = len(tris)
     loops = np.empty(m * 3, dtype=np.int32)
@@ -93,6 +160,8 @@ def shading_arrays(mesh, request, warnings):
         layer.data.foreach_get("uv", flat)
         uvs.append(flat.reshape(-1, 2)[loops].reshape(m, 3, 2))
     args = {"uvs": uvs}
+    if color_names:
+        args["colors"] = [_corner_colors(mesh, name, loops, warnings) for name in color_names]
     if tangent_uv is not None:
         layer = _uv_layer(mesh, tangent_uv)
         try:

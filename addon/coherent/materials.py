@@ -119,6 +119,7 @@ class MaterialConverter:
         self.images = images  # ImageExporter (images.py), None: no image textures
         # What the compiled programs read (Scene.set_shading_inputs).
         self.uv_names = []
+        self.color_names = []  # colour attributes the programs read ("" = the render colour attribute)
         self.tangent_uv = None  # UV map name the normal maps' tangents follow
         self.uses = set()
 
@@ -145,6 +146,7 @@ class MaterialConverter:
         """A converter for re-converting edited materials of the same scene (viewport edits)."""
         other = MaterialConverter(self.scene, warnings, self.fold, self.images)
         other.uv_names = self.uv_names
+        other.color_names = self.color_names
         other.tangent_uv = self.tangent_uv
         return other
 
@@ -156,7 +158,7 @@ class MaterialConverter:
                 self._converted[key] = self.convert(material)
         try:
             self.scene.set_shading_inputs(uv_names=list(self.uv_names), tangents="tangents" in self.uses,
-                                          objects="objects" in self.uses)
+                                          objects="objects" in self.uses, color_names=list(self.color_names))
         except ValueError:  # meshes already added (a re-export into a live scene): keep what they carry
             pass
 
@@ -165,6 +167,12 @@ class MaterialConverter:
         if name not in self.uv_names:
             self.uv_names.append(name)
         return self.uv_names.index(name)
+
+    def color_index(self, name):
+        """Scene colour attribute index of an attribute name."""
+        if name not in self.color_names:
+            self.color_names.append(name)
+        return self.color_names.index(name)
 
     def native_indices(self):
         """{original material pointer: native index} of every material converted so far (a copy)."""
@@ -176,7 +184,7 @@ class MaterialConverter:
         self._graph = shader_compiler.GraphCompiler(
             builder, lambda text: self._warn(material, text),
             (lambda image, node: self.images.index_of(image, material, node)) if self.images else
-            (lambda image, node: self._no_images(material, node)), self._uv_index_for(builder))
+            (lambda image, node: self._no_images(material, node)), self._uv_index_for(builder), self.color_index)
         self._builder = builder
         flat = _Flattened(builder)
         if material.use_nodes and material.node_tree is not None:

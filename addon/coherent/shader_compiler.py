@@ -23,6 +23,10 @@ OPS = ("MATH", "VECTOR_MATH", "MIX_COLOR", "MIX_FLOAT", "MIX_VECTOR", "MAPPING",
        # Procedural textures (the block at the end of this file)
        "TEX_WHITE_NOISE", "TEX_NOISE", "TEX_VORONOI", "TEX_MUSGRAVE", "TEX_WAVE", "TEX_GRADIENT", "TEX_MAGIC",
        "TEX_BRICK")
+# Colour adjustments, inputs and bump
+OPS += ("CURVES", "FLOAT_CURVE", "HUE_SAT_VAL", "GAMMA", "BRIGHT_CONTRAST", "MAP_RANGE", "VECTOR_MAP_RANGE_FACTOR",
+        "VECTOR_MAP_RANGE_APPLY", "COLOR_CONVERT", "FRESNEL", "GEOMETRY", "LIGHT_PATH", "ATTRIBUTE",
+        "BUMP_TEX_COORD", "BUMP")
 OP = {name: i for i, name in enumerate(OPS)}
 # Closure fields a program drives: ShaderField in program.h, in order.
 FIELDS = ("base_color", "metallic", "roughness", "specular", "transmission", "ior", "weight", "emission", "normal")
@@ -53,7 +57,8 @@ NON_UNIFORM_BIT = 0x400    # Mix (vector) per-component factor
 RAMP_TABLE_SIZE = 256
 MAX_GROUP_DEPTH = 16
 # Ops that read geometry or images: never folded.
-_VARYING_OPS = {OP["TEX_COORD"], OP["IMAGE_TEXTURE"], OP["NORMAL_MAP"]}
+_VARYING_OPS = {OP["TEX_COORD"], OP["IMAGE_TEXTURE"], OP["NORMAL_MAP"], OP["FRESNEL"], OP["GEOMETRY"],
+                OP["LIGHT_PATH"], OP["ATTRIBUTE"], OP["BUMP_TEX_COORD"], OP["BUMP"]}
 # Cycles' luma of Blender 3.4's scene linear space (RGB to BW, colour -> float conversion).
 _LUMA = (0.212671, 0.71516, 0.072169)
 
@@ -199,17 +204,20 @@ class GraphCompiler:
     warn(text): one warning line (the caller prefixes the material name).
     image_index(image, node) -> scene image index: registers an image.
     uv_index(name) -> UV layer index ("" = the active render UV map).
+    color_index(name) -> colour attribute index ("" = the render colour attribute); None: not exported.
     """
 
-    def __init__(self, builder, warn, image_index, uv_index):
+    def __init__(self, builder, warn, image_index, uv_index, color_index=None):
         self.b = builder
         self.warn = warn
         self.image_index = image_index
         self.uv_index = uv_index
+        self.color_index = color_index
         self._cache = {}          # (group path, node pointer, output name) -> value
         self._warned_types = set()
         self._group_path = ()     # the group nodes we are inside, outermost first
         self.consumer = ""        # which closure input is being compiled, for warnings
+        self.bump_axis = 0        # compiling a Bump height at offset 1 (dx) or 2 (dy): position reads shift
 
     # -- sockets and links ------------------------------------------------------------
 
@@ -265,7 +273,7 @@ class GraphCompiler:
     def output_value(self, node, out):
         if isinstance(node, _Resolved):
             return node.value
-        key = (tuple(g.as_pointer() for g in self._group_path), node.as_pointer(), out.identifier)
+        key = (tuple(g.as_pointer() for g in self._group_path), node.as_pointer(), out.identifier, self.bump_axis)
         if key not in self._cache:
             self._cache[key] = self._compile_node(node, out)
         return self._cache[key]
@@ -408,20 +416,22 @@ def _rgb_to_bw(gc, node, out):
 
 
 def _separate(gc, node, out):
-    if getattr(node, "mode", "RGB") != "RGB":
-        gc.warn(f"Separate Color mode {node.mode} ('{node.name}') is not supported: using RGB")
     value = _inp(gc, node, 0, 3)
+    if getattr(node, "mode", "RGB") != "RGB":
+        value = _color_convert(gc, "RGB_TO_" + node.mode, value)
     k = [o.identifier for o in node.outputs].index(out.identifier)
     return value.component(k) if isinstance(value, Reg) else value[k]
 
 
 def _combine(gc, node, out):
-    if getattr(node, "mode", "RGB") != "RGB":
-        gc.warn(f"Combine Color mode {node.mode} ('{node.name}') is not supported: using RGB")
     parts = [_inp(gc, node, k, 1) for k in range(3)]
     if all(is_constant(p) for p in parts):
-        return tuple(parts)
-    return gc.b.emit("COMBINE", 0, [(p, 1) for p in parts], (3,))[0]
+        value = tuple(parts)
+    else:
+        value = gc.b.emit("COMBINE", 0, [(p, 1) for p in parts], (3,))[0]
+    if getattr(node, "mode", "RGB") != "RGB":
+        value = _color_convert(gc, node.mode + "_TO_RGB", value)
+    return value
 
 
 def _clamp(gc, node, out):
@@ -444,6 +454,8 @@ def _coordinate(gc, kind, uv_name):
         gc.b.uses.add("uv")
     else:
         gc.b.uses.add("objects")
+    if gc.bump_axis:
+        return gc.b.emit("BUMP_TEX_COORD", kind | gc.bump_axis << BUMP_AXIS_SHIFT, [], (3,), data=data)[0]
     return gc.b.emit("TEX_COORD", kind, [], (3,), data=data)[0]
 
 
@@ -661,4 +673,210 @@ _HANDLERS.update({
     "ShaderNodeTexGradient": _gradient,
     "ShaderNodeTexMagic": _magic,
     "ShaderNodeTexBrick": _brick,
+})
+
+
+# -- Colour adjustments, inputs and bump ----------------------------------------------
+# Each as Cycles 3.4 compiles it (intern/cycles/scene/shader_nodes.cpp,
+# blender/shader.cpp); the formulas are native/shader/node_adjust.h.
+
+CURVE_TABLE_SIZE = 256
+BUMP_AXIS_SHIFT = 8
+MAP_RANGE_TYPES = ("LINEAR", "STEPPED", "SMOOTHSTEP", "SMOOTHERSTEP")
+COLOR_CONVERSIONS = ("RGB_TO_HSV", "HSV_TO_RGB", "RGB_TO_HSL", "HSL_TO_RGB")
+FRESNEL_KINDS = {"Fresnel": 0, "Layer Fresnel": 1, "Layer Facing": 2}
+GEOMETRY_OUTPUTS = ("Position", "Normal", "Tangent", "True Normal", "Incoming", "Parametric", "Backfacing")
+LIGHT_PATH_OUTPUTS = ("Is Camera Ray", "Is Shadow Ray", "Is Diffuse Ray", "Is Glossy Ray", "Is Singular Ray",
+                      "Is Reflection Ray", "Is Transmission Ray", "Ray Length", "Ray Depth", "Diffuse Depth",
+                      "Glossy Depth", "Transparent Depth", "Transmission Depth")
+
+
+def _curve_range(mapping, count):
+    """Cycles' curvemapping_minmax: the x span of the first `count` curves' end points."""
+    lo = min(float(mapping.curves[k].points[0].location[0]) for k in range(count))
+    hi = max(float(mapping.curves[k].points[-1].location[0]) for k in range(count))
+    return lo, hi
+
+
+def _curve_table(gc, mapping, count, rgb_curve=False):
+    """A curve table in the program's data (Cycles' curvemapping_*_to_array): offset."""
+    mapping.update()
+    lo, hi = _curve_range(mapping, 4 if rgb_curve else count)
+    offset = len(gc.b.data)
+    gc.b.data.extend((lo, hi))
+    curves = [mapping.curves[k] for k in range(count)]
+    for i in range(CURVE_TABLE_SIZE):
+        t = lo + i / (CURVE_TABLE_SIZE - 1) * (hi - lo)
+        if rgb_curve:  # the combined curve first, then each channel's
+            t = mapping.evaluate(mapping.curves[3], t)
+        row = [float(mapping.evaluate(c, t)) for c in curves]
+        gc.b.data.extend(row + [0.0] if count == 3 else row)
+    return offset, 1 if mapping.extend == "EXTRAPOLATED" else 0
+
+
+def _rgb_curves(gc, node, out):
+    vector = node.bl_idname == "ShaderNodeVectorCurve"
+    offset, extrapolate = _curve_table(gc, node.mapping, 3, rgb_curve=not vector)
+    value = _inp(gc, node, "Vector" if vector else "Color", 3)
+    return gc.b.emit("CURVES", extrapolate, [(_inp(gc, node, "Fac", 1), 1), (value, 3)], (3,), data=offset)[0]
+
+
+def _float_curve(gc, node, out):
+    offset, extrapolate = _curve_table(gc, node.mapping, 1)
+    return gc.b.emit("FLOAT_CURVE", extrapolate, [(_inp(gc, node, "Factor", 1), 1), (_inp(gc, node, "Value", 1), 1)],
+                     (1,), data=offset)[0]
+
+
+def _packed(gc, parts):
+    """Three floats as one vec3 operand (constant when they all are)."""
+    if all(is_constant(p) for p in parts):
+        return tuple(float(p) for p in parts)
+    return gc.b.emit("COMBINE", 0, [(p, 1) for p in parts], (3,))[0]
+
+
+def _hue_saturation(gc, node, out):
+    hsv = _packed(gc, [_inp(gc, node, name, 1) for name in ("Hue", "Saturation", "Value")])
+    return gc.b.emit("HUE_SAT_VAL", 0, [(_inp(gc, node, "Fac", 1), 1), (_inp(gc, node, "Color", 3), 3), (hsv, 3)],
+                     (3,))[0]
+
+
+def _gamma(gc, node, out):
+    return gc.b.emit("GAMMA", 0, [(_inp(gc, node, "Color", 3), 3), (_inp(gc, node, "Gamma", 1), 1)], (3,))[0]
+
+
+def _bright_contrast(gc, node, out):
+    return gc.b.emit("BRIGHT_CONTRAST", 0, [(_inp(gc, node, "Color", 3), 3), (_inp(gc, node, "Bright", 1), 1),
+                                            (_inp(gc, node, "Contrast", 1), 1)], (3,))[0]
+
+
+def _map_range(gc, node, out):
+    """Inputs 0-5: float value, from min/max, to min/max, steps; 6-11 the same as vectors."""
+    kind = MAP_RANGE_TYPES.index(node.interpolation_type)
+    if node.data_type == "FLOAT_VECTOR":
+        v = [_inp(gc, node, k, 3) for k in range(6, 12)]
+        factor = gc.b.emit("VECTOR_MAP_RANGE_FACTOR", kind, [(v[0], 3), (v[1], 3), (v[2], 3), (v[5], 3)], (3,))[0]
+        clamp = CLAMP_BIT if node.clamp and kind < 2 else 0
+        return gc.b.emit("VECTOR_MAP_RANGE_APPLY", clamp, [(factor, 3), (v[3], 3), (v[4], 3)], (3,))[0]
+    v = [_inp(gc, node, k, 1) for k in range(6)]
+    result = gc.b.emit("MAP_RANGE", kind, [(v[0], 1), (v[1], 1), (v[2], 1), (_packed(gc, v[3:6]), 3)], (1,))[0]
+    if node.clamp:  # MapRangeNode::expand: a Clamp node over To Min .. To Max
+        result = gc.b.emit("CLAMP", 1, [(result, 1), (v[3], 1), (v[4], 1)], (1,))[0]
+    return result
+
+
+def _color_convert(gc, conversion, value):
+    return gc.b.emit("COLOR_CONVERT", COLOR_CONVERSIONS.index(conversion), [(value, 3)], (3,))[0]
+
+
+def _separate_hsv(gc, node, out):
+    hsv = _color_convert(gc, "RGB_TO_HSV", _inp(gc, node, "Color", 3))
+    k = [o.identifier for o in node.outputs].index(out.identifier)
+    return hsv.component(k) if isinstance(hsv, Reg) else hsv[k]
+
+
+def _combine_hsv(gc, node, out):
+    return _color_convert(gc, "HSV_TO_RGB", _packed(gc, [_inp(gc, node, k, 1) for k in range(3)]))
+
+
+def _geometry_output(gc, name):
+    kind = GEOMETRY_OUTPUTS.index(name)
+    if name == "Tangent":
+        gc.b.uses.add("objects")  # around the generated coordinates' axis, in object space
+    return gc.b.emit("GEOMETRY", kind | gc.bump_axis << BUMP_AXIS_SHIFT, [], (1 if name == "Backfacing" else 3,))[0]
+
+
+def _normal_input(gc, node):
+    """A Normal input: the shading normal unless linked (Cycles' LINK_NORMAL)."""
+    socket = node.inputs["Normal"]
+    if gc._follow(socket) is None:
+        return _geometry_output(gc, "Normal")
+    return gc.input_value(socket, 3)
+
+
+def _fresnel(gc, node, out):
+    if node.bl_idname == "ShaderNodeFresnel":
+        kind, x = FRESNEL_KINDS["Fresnel"], _inp(gc, node, "IOR", 1)
+    else:
+        kind = FRESNEL_KINDS["Layer Fresnel" if out.identifier == "Fresnel" else "Layer Facing"]
+        x = _inp(gc, node, "Blend", 1)
+    return gc.b.emit("FRESNEL", kind, [(x, 1), (_normal_input(gc, node), 3)], (1,))[0]
+
+
+def _geometry(gc, node, out):
+    name = out.identifier
+    if name in GEOMETRY_OUTPUTS:
+        return _geometry_output(gc, name)
+    # Pointiness and Random Per Island are per-vertex / per-island attributes
+    # Cycles computes on the mesh; not exported yet.
+    fallback = 0.5 if name == "Pointiness" else 0.0
+    gc.warn(f"Geometry output '{name}' ('{node.name}') is not supported: using {fallback}")
+    return fallback
+
+
+def _light_path(gc, node, out):
+    if out.identifier not in LIGHT_PATH_OUTPUTS:
+        gc.warn(f"Light Path output '{out.identifier}' ('{node.name}') is not supported: using 0")
+        return 0.0
+    return gc.b.emit("LIGHT_PATH", LIGHT_PATH_OUTPUTS.index(out.identifier), [], (1,))[0]
+
+
+def _attribute(gc, node, out):
+    """Attribute (geometry type) and Color Attribute nodes: a mesh attribute as per-corner RGBA."""
+    if node.bl_idname == "ShaderNodeVertexColor":
+        name = node.layer_name
+    elif getattr(node, "attribute_type", "GEOMETRY") == "GEOMETRY":
+        name = node.attribute_name
+    else:
+        name = None
+    if name is None or gc.color_index is None:
+        gc.warn(f"attribute node '{node.name}' reads an object or instancer attribute, which is not supported: "
+                f"using 0")
+        return 0.0
+    gc.b.uses.add("colors")
+    color, alpha = gc.b.emit("ATTRIBUTE", gc.bump_axis, [], (3, 1), data=gc.color_index(name))
+    if out.identifier == "Alpha":
+        return alpha
+    if out.identifier == "Fac":  # Cycles: the average of the channels
+        return gc.b.convert(color, 1, as_color=False)
+    return color
+
+
+def _bump(gc, node, out):
+    """Cycles' Bump: the height compiled three times, at the point and one ray footprint along dx and dy."""
+    normal = _normal_input(gc, node)
+    height = node.inputs["Height"]
+    if gc._follow(height) is None:
+        return normal  # BumpNode::constant_fold: nothing to perturb
+    if gc.bump_axis:
+        gc.warn(f"Bump '{node.name}' inside another Bump's height: using its normal input")
+        return normal
+    heights = []
+    for axis in (0, 1, 2):
+        gc.bump_axis = axis
+        try:
+            heights.append(gc.input_value(height, 1))
+        finally:
+            gc.bump_axis = 0
+    return gc.b.emit("BUMP", 1 if node.invert else 0, [(_inp(gc, node, "Strength", 1), 1),
+                                                      (_inp(gc, node, "Distance", 1), 1), (normal, 3),
+                                                      (_packed(gc, heights), 3)], (3,))[0]
+
+
+_HANDLERS.update({
+    "ShaderNodeBump": _bump,
+    "ShaderNodeAttribute": _attribute,
+    "ShaderNodeVertexColor": _attribute,
+    "ShaderNodeRGBCurve": _rgb_curves,
+    "ShaderNodeVectorCurve": _rgb_curves,
+    "ShaderNodeFloatCurve": _float_curve,
+    "ShaderNodeHueSaturation": _hue_saturation,
+    "ShaderNodeGamma": _gamma,
+    "ShaderNodeBrightContrast": _bright_contrast,
+    "ShaderNodeMapRange": _map_range,
+    "ShaderNodeSeparateHSV": _separate_hsv,
+    "ShaderNodeCombineHSV": _combine_hsv,
+    "ShaderNodeFresnel": _fresnel,
+    "ShaderNodeLayerWeight": _fresnel,
+    "ShaderNodeNewGeometry": _geometry,
+    "ShaderNodeLightPath": _light_path,
 })

@@ -217,7 +217,7 @@ size_t add_mesh(PyScene& self, const std::string& name, const py::handle& positi
                 const py::handle& indices_obj, const py::handle& matrix_obj, const py::handle& normals_obj,
                 const py::handle& material_ids_obj, const py::handle& material_slots_obj,
                 const py::handle& matrix_close_obj, const py::handle& uvs_obj, const py::handle& tangents_obj,
-                const py::handle& generated_obj) {
+                const py::handle& generated_obj, const py::handle& colors_obj) {
     self.check_mutable("add_mesh");
     MeshArgs args;
     read_mesh_arrays(args, name, positions_obj, indices_obj, normals_obj, material_ids_obj);
@@ -242,7 +242,7 @@ size_t add_mesh(PyScene& self, const std::string& name, const py::handle& positi
     in.material_slots = read_material_slots(self, material_slots_obj);
 
     MeshShadingArrays shading_arrays;
-    read_mesh_shading(self, in, uvs_obj, tangents_obj, generated_obj, shading_arrays);
+    read_mesh_shading(self, in, uvs_obj, tangents_obj, generated_obj, colors_obj, shading_arrays);
 
     size_t added;
     {
@@ -258,12 +258,12 @@ size_t add_mesh(PyScene& self, const std::string& name, const py::handle& positi
 int64_t add_prototype(PyScene& self, const std::string& name, const py::handle& positions_obj,
                       const py::handle& indices_obj, const py::handle& normals_obj,
                       const py::handle& material_ids_obj, const py::handle& uvs_obj, const py::handle& tangents_obj,
-                      const py::handle& generated_obj) {
+                      const py::handle& generated_obj, const py::handle& colors_obj) {
     self.check_mutable("add_prototype");
     MeshArgs args;
     read_mesh_arrays(args, name, positions_obj, indices_obj, normals_obj, material_ids_obj);
     MeshShadingArrays shading_arrays;  // kept alive until add_prototype copied them
-    read_mesh_shading(self, args.in, uvs_obj, tangents_obj, generated_obj, shading_arrays);
+    read_mesh_shading(self, args.in, uvs_obj, tangents_obj, generated_obj, colors_obj, shading_arrays);
     uint32_t id;
     {
         py::gil_scoped_release unlocked;
@@ -609,10 +609,11 @@ void bind_instancing(py::class_<PyScene, std::shared_ptr<PyScene>>& scene_class)
         .def("add_prototype", &add_prototype, py::arg("name"), py::arg("positions"), py::arg("indices"),
              py::arg("normals") = py::none(), py::arg("material_ids") = py::none(), py::kw_only(),
              py::arg("uvs") = py::none(), py::arg("tangents") = py::none(), py::arg("generated") = py::none(),
+             py::arg("colors") = py::none(),
              R"doc(Adds a mesh shared by instances, stored once in object space.
 
-Arguments as add_mesh's (no matrix), UVs, tangents and texture space
-included: every instance shades with them. Material ids select slots that
+Arguments as add_mesh's (no matrix), UVs, tangents, texture space and
+colour attributes included: every instance shades with them. Material ids select slots that
 each instance maps to scene materials (add_instances). Returns the
 prototype's index, or -1 when no triangle was usable (reported in `dropped`).
 )doc")
@@ -716,6 +717,7 @@ default grey diffuse.
              py::arg("normals") = py::none(), py::arg("material_ids") = py::none(),
              py::arg("material_slots") = py::none(), py::arg("matrix_close") = py::none(), py::kw_only(),
              py::arg("uvs") = py::none(), py::arg("tangents") = py::none(), py::arg("generated") = py::none(),
+             py::arg("colors") = py::none(),
              R"doc(Adds a triangle mesh, transformed to world space by `matrix`.
 
 positions: float (N, 3) object-space vertices (any real dtype, converted to float32)
@@ -730,6 +732,8 @@ uvs: optional list, one per set_shading_inputs UV name, of float (M, 3, 2)
   per-corner UVs (None where the mesh lacks that layer)
 tangents: optional float (M, 3, 4) per-corner object-space tangent and bitangent sign
 generated: optional (scale, offset) of Blender's texture space
+colors: optional list, one per set_shading_inputs colour name, of float (M, 3, 4)
+  per-corner linear RGBA (None where the mesh lacks that attribute)
 Bad triangles (non-finite, out-of-range index, zero area) are dropped and
 counted in `dropped`. Returns the number of triangles added.)doc")
         .def("add_material", &add_material, py::arg("name"), py::arg("closures") = py::none(),

@@ -108,7 +108,7 @@ py::dict texture_stats(const PyScene& self) {
 }  // namespace
 
 void read_mesh_shading(const PyScene& self, MeshInput& mesh, const py::handle& uvs, const py::handle& tangents,
-                       const py::handle& generated, MeshShadingArrays& arrays) {
+                       const py::handle& generated, const py::handle& colors, MeshShadingArrays& arrays) {
     const py::ssize_t m = py::ssize_t(mesh.triangle_count);
     if (!uvs.is_none()) {
         for (auto item : py::iter(uvs)) {
@@ -122,6 +122,20 @@ void read_mesh_shading(const PyScene& self, MeshInput& mesh, const py::handle& u
         }
         if (mesh.shading.uvs.size() > self.scene.shading.uv_names.size())
             throw py::value_error("uvs: more layers than set_shading_inputs declared");
+    }
+    if (!colors.is_none()) {
+        for (auto item : py::iter(colors)) {
+            if (item.is_none()) {
+                mesh.shading.colors.push_back(nullptr);
+                continue;
+            }
+            FloatArray a =
+                float_rows(item, {m, 3, 4}, "colors[" + std::to_string(mesh.shading.colors.size()) + "] (M, 3, 4)");
+            mesh.shading.colors.push_back(a.data());
+            arrays.keep.push_back(a);
+        }
+        if (mesh.shading.colors.size() > self.scene.shading.color_names.size())
+            throw py::value_error("colors: more attributes than set_shading_inputs declared");
     }
     if (!tangents.is_none()) {
         FloatArray a = float_rows(tangents, {m, 3, 4}, "tangents (M, 3, 4)");
@@ -149,6 +163,10 @@ std::shared_ptr<const ShaderProgram> program_from_object(const PyScene& self, co
         p->drives_emission = p->drives_emission || o.field == ShaderField::Emission;
         p->drives_normal = p->drives_normal || o.field == ShaderField::Normal;
     }
+    for (const ShaderInstr& in : p->code) {
+        p->uses_light_path = p->uses_light_path || in.op == ShaderOp::LightPath;
+        p->uses_bump = p->uses_bump || in.op == ShaderOp::Bump;
+    }
     const SceneShading& sh = self.scene.shading;
     const std::string error = p->validate(sh.textures ? sh.textures->size() : 0, sh.uv_names.size());
     if (!error.empty()) throw py::value_error("program: " + error);
@@ -159,19 +177,22 @@ void bind_shading(py::module_& m) {
     auto scene = py::reinterpret_borrow<py::class_<PyScene>>(m.attr("Scene"));
     scene.def(
         "set_shading_inputs",
-        [](PyScene& self, std::vector<std::string> uv_names, bool tangents, bool objects) {
+        [](PyScene& self, std::vector<std::string> uv_names, bool tangents, bool objects,
+           std::vector<std::string> color_names) {
             self.check_mutable("set_shading_inputs");
             if (self.scene.triangle_count() > 0)
                 throw py::value_error("set_shading_inputs: call it before add_mesh");
             self.scene.shading.uv_names = std::move(uv_names);
             self.scene.shading.wants_tangents = tangents;
             self.scene.shading.wants_objects = objects;
+            self.scene.shading.color_names = std::move(color_names);
         },
         py::kw_only(), py::arg("uv_names") = std::vector<std::string>{}, py::arg("tangents") = false,
-        py::arg("objects") = false,
+        py::arg("objects") = false, py::arg("color_names") = std::vector<std::string>{},
         R"doc(Declares what shader programs read, before any add_mesh: the UV layers
 (by name, in the order add_mesh's `uvs` lists them and programs address them),
-whether normal maps need tangents, and whether object-space coordinates are read.)doc");
+whether normal maps need tangents, whether object-space coordinates are read, and
+the colour attributes (by name, in the order add_mesh's `colors` lists them).)doc");
     scene.def("add_image", &add_image, py::arg("label"), py::kw_only(), py::arg("path") = py::none(),
               py::arg("pixels") = py::none(),
               R"doc(Adds an image for Image Texture instructions; returns its index.

@@ -13,9 +13,9 @@ namespace coherent::python {
 struct MeshShadingArrays {
     std::vector<py::array> keep;
 };
-// Fills mesh.shading from add_mesh's uvs / tangents / generated arguments.
+// Fills mesh.shading from add_mesh's uvs / tangents / generated / colors arguments.
 void read_mesh_shading(const PyScene& self, MeshInput& mesh, const py::handle& uvs, const py::handle& tangents,
-                       const py::handle& generated, MeshShadingArrays& arrays);
+                       const py::handle& generated, const py::handle& colors, MeshShadingArrays& arrays);
 // A validated shader program from add_material's `program` dict (None -> null).
 std::shared_ptr<const ShaderProgram> program_from_object(const PyScene& self, const py::handle& obj);
 // Scene.set_shading_inputs, Scene.add_image, Scene.texture_stats.

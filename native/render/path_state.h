@@ -38,6 +38,7 @@
 #include "../sample/image_sampler.h"
 #include "../scene/scene.h"
 #include "../shader/eval.h"
+#include "../shader/program.h"
 #include "bsdf.h"
 #include "camera_rays.h"
 #include "instance_shading.h"
@@ -277,18 +278,50 @@ COHERENT_ALWAYS_INLINE SurfacePoint surface_point(const Scene& scene, const Path
     return sp;
 }
 
+// Cycles' path flags and bounce counters at a hit of s.ray (the Light Path
+// node): the ray's type says how it left the previous surface.
+inline LightPathInfo light_path_info(const PathState& s, float t) {
+    using F = LightPathInfo;
+    LightPathInfo info;
+    switch (s.type) {
+        case RayType::Camera: info.flags = F::kCamera; break;
+        case RayType::Diffuse: info.flags = F::kDiffuse | F::kReflect; break;
+        case RayType::Glossy: info.flags = F::kGlossy | F::kReflect; break;
+        case RayType::Reflection: info.flags = F::kGlossy | F::kSingular | F::kReflect; break;
+        case RayType::Refraction:  // sharp glass leaves prev_pdf 0 (a delta)
+            info.flags = F::kGlossy | F::kTransmit | (s.prev_pdf == 0.0f ? F::kSingular : 0);
+            break;
+        default: info.flags = 0; break;
+    }
+    info.ray_length = t;
+    info.depth = s.bounce;
+    info.diffuse_depth = s.diffuse_bounce;
+    info.glossy_depth = s.glossy_bounce;
+    info.transmission_depth = s.transmission_bounce;
+    return info;
+}
+
+// Cycles' compact ray differential dP at a hit: the width a pixel covers
+// there, as seen from the camera (later bounces keep the camera's spread).
+inline float pixel_footprint(const Scene& scene, const RenderSettings& rs, const Vec3f& p) {
+    const Camera& cam = scene.camera;
+    const float pixel = cam.half_width / float(std::max(rs.width, 1)) + cam.half_height / float(std::max(rs.height, 1));
+    return cam.projection == Projection::Orthographic ? pixel : pixel * length(p - cam.position);
+}
+
 // The material at sp: its constants, or for a node graph with non-constant
 // inputs what its shader program computes there (built in `scratch`; a
 // normal map also replaces sp.n). Constant materials take the first return.
-COHERENT_ALWAYS_INLINE const Material& material_at(const Scene& scene, const Hit& hit, SurfacePoint& sp,
-                                                    std::optional<Material>& scratch, float time) {
+COHERENT_ALWAYS_INLINE const Material& material_at(const PathContext& ctx, const PathState& s, const Hit& hit,
+                                                    SurfacePoint& sp, std::optional<Material>& scratch) {
+    const Scene& scene = *ctx.scene;
     const Material& base = scene.materials[sp.material];
     if (!base.program) return base;
     ShadingGeometry g;
     g.tri = sp.tri;
     if (hit.instance != kInvalidPrim) {
         const Instance& inst = scene.instances[hit.instance];
-        const InstanceFrame frame = instance_frame(scene, inst, time);
+        const InstanceFrame frame = instance_frame(scene, inst, s.time);
         g.prototype = &scene.prototypes[inst.prototype];
         g.prim = hit.prim;
         g.object_to_world = frame.to_world;
@@ -301,6 +334,13 @@ COHERENT_ALWAYS_INLINE const Material& material_at(const Scene& scene, const Hit
     g.ng = sp.ng_f;
     g.wo = sp.wo;
     g.front = sp.front;
+    LightPathInfo path;
+    if (base.program->uses_light_path) {
+        // Cycles starts camera rays on the near clip plane: lengths count from there.
+        path = light_path_info(s, hit.t - s.ray.tmin);
+        g.path = &path;
+    }
+    if (base.program->uses_bump) g.footprint = pixel_footprint(scene, *ctx.settings, sp.p);
     evaluate_material(scene, base, g, scratch.emplace(), sp.n);
     return *scratch;
 }
@@ -485,7 +525,7 @@ inline void shade_hit(const PathContext& ctx, const PathSampler& ps, PathState& 
 
     std::optional<Material> scratch;
     const Vec3f interpolated_n = sp.n;
-    const Material& mat = material_at(scene, hit, sp, scratch, s.time);
+    const Material& mat = material_at(ctx, s, hit, sp, scratch);
     if (s.features.pending) {
         record_emission_feature(s.features, mat.emission, s.out.albedo);
         record_surface_features(mat, sp.n, dot(sp.n, sp.wo), scene.camera, s.features, s.out.albedo,

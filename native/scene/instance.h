@@ -34,6 +34,7 @@ struct Prototype {
     std::vector<std::vector<Vec2f>> uvs;  // [layer][corner], layers as SceneShading::uv_names
     std::vector<Vec3f> tangents;          // unit, orthogonal to the object-space shading normal
     std::vector<float> tangent_signs;
+    std::vector<std::vector<float>> colors;  // [attribute][4 * corner + channel], as SceneShading::colors
     Vec3f generated_scale{1.0f}, generated_offset{0.0f};  // Blender's texture space of the mesh
 
     size_t triangle_count() const { return slot_of.size(); }

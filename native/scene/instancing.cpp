@@ -93,6 +93,7 @@ PrototypeMesh as_mesh_input(const Prototype& p, const Transform& xf, const Trans
     pm.in.material_ids = p.slot_of.data();
     pm.in.material_slots = slots;
     for (const auto& layer : p.uvs) pm.in.shading.uvs.push_back(layer.empty() ? nullptr : &layer[0].x);
+    for (const auto& layer : p.colors) pm.in.shading.colors.push_back(layer.empty() ? nullptr : layer.data());
     if (!p.tangents.empty()) {
         pm.tangents.reserve(4 * p.tangents.size());
         for (size_t c = 0; c < p.tangents.size(); ++c)
@@ -127,6 +128,7 @@ uint32_t Scene::add_prototype(const MeshInput& mesh) {
     Scene object_space;
     object_space.shading.uv_names = shading.uv_names;  // UVs and tangents as the programs want them
     object_space.shading.wants_tangents = shading.wants_tangents;
+    object_space.shading.color_names = shading.color_names;
     MeshInput in = mesh;
     in.object_to_world = Transform{};
     in.moves = false;
@@ -157,6 +159,7 @@ uint32_t Scene::add_prototype(const MeshInput& mesh) {
     p.uvs = std::move(object_space.shading.uvs);
     p.tangents = std::move(object_space.shading.tangents);
     p.tangent_signs = std::move(object_space.shading.tangent_signs);
+    p.colors = std::move(object_space.shading.colors);
     p.generated_scale = mesh.shading.generated_scale;
     p.generated_offset = mesh.shading.generated_offset;
     for (const Vec3f& v : p.vertices) p.bounds.expand(v);

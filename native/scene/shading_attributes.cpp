@@ -50,6 +50,15 @@ void append_shading_corners(SceneShading& shading, const MeshInput& mesh, size_t
             shading.uvs[layer].push_back(uv);
         }
     }
+    shading.colors.resize(shading.color_names.size());
+    for (size_t layer = 0; layer < shading.colors.size(); ++layer) {
+        const float* src = layer < in.colors.size() ? in.colors[layer] : nullptr;
+        for (int k = 0; k < 3; ++k)
+            for (int c = 0; c < 4; ++c) {
+                const float x = src ? src[12 * t + 4 * corner[k] + c] : 0.0f;
+                shading.colors[layer].push_back(std::isfinite(x) ? x : 0.0f);
+            }
+    }
     if (!shading.wants_tangents) return;
     const float mirror = mesh.object_to_world.determinant() < 0.0f ? -1.0f : 1.0f;
     for (int k = 0; k < 3; ++k) {

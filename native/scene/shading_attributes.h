@@ -19,6 +19,8 @@ class TextureStore;
 struct MeshShadingInput {
     // One per SceneShading::uv_names entry: triangle_count x 3 x 2 per-corner UVs, or null.
     std::vector<const float*> uvs;
+    // One per SceneShading::color_names entry: triangle_count x 3 x 4 per-corner linear RGBA, or null.
+    std::vector<const float*> colors;
     // triangle_count x 3 x 4: object-space tangent (xyz) and bitangent sign (w), per corner.
     const float* tangents = nullptr;
     // Blender's texture space: generated = object position * scale + offset.
@@ -34,11 +36,13 @@ struct ObjectShading {
 struct SceneShading {
     // Set before meshes are added: what programs read.
     std::vector<std::string> uv_names;  // UV layers programs address by index ("" = the active render UV map)
+    std::vector<std::string> color_names;  // colour attributes programs address by index
     bool wants_tangents = false;
     bool wants_objects = false;
 
     // Filled by add_mesh, parallel to Scene::vertices (3 per triangle):
     std::vector<std::vector<Vec2f>> uvs;  // [layer][corner]; a mesh without the layer gets (0, 0)
+    std::vector<std::vector<float>> colors;  // [attribute][4 * corner + channel]; missing: 0
     std::vector<Vec3f> tangents;          // world space, unit; empty unless wants_tangents
     std::vector<float> tangent_signs;     // bitangent = sign * cross(normal, tangent), mirroring included
     std::vector<ObjectShading> objects;   // per object; empty unless wants_objects

@@ -8,6 +8,7 @@
 #include <optional>
 
 #include "../scene/scene.h"
+#include "node_adjust.h"
 #include "node_color.h"
 #include "node_math.h"
 #include "node_procedural.h"
@@ -46,13 +47,17 @@ struct CornerSource {
     const std::vector<std::vector<Vec2f>>& uvs;
     const std::vector<Vec3f>& tangents;
     const std::vector<float>& tangent_signs;
+    const std::vector<std::vector<float>>& colors;
     size_t tri;
 };
 
 CornerSource corners_of(const Scene& scene, const ShadingGeometry& g) {
-    if (g.prototype) return {g.prototype->uvs, g.prototype->tangents, g.prototype->tangent_signs, g.prim};
+    if (g.prototype) {
+        const Prototype& p = *g.prototype;
+        return {p.uvs, p.tangents, p.tangent_signs, p.colors, g.prim};
+    }
     const SceneShading& sh = scene.shading;
-    return {sh.uvs, sh.tangents, sh.tangent_signs, g.tri};
+    return {sh.uvs, sh.tangents, sh.tangent_signs, sh.colors, g.tri};
 }
 
 Vec3f uv_coordinate(const Scene& scene, const ShadingGeometry& g, uint32_t layer) {
@@ -169,6 +174,195 @@ void mix(const ShaderInstr& in, const Registers& r) {
     }
 }
 
+// -- Colour adjustments, inputs and bump ----------------------------------------
+
+// Cycles' primitive_tangent for meshes: around the object's generated-
+// coordinate z axis, orthogonal to the shading normal.
+Vec3f geometry_tangent(const Scene& scene, const ShadingGeometry& g) {
+    const Vec3f gen = texture_coordinate(scene, g, TexCoordKind::Generated, 0);
+    Vec3f t{-(gen.y - 0.5f), gen.x - 0.5f, 0.0f};
+    if (const std::optional<ObjectShading> object = object_of(scene, g)) {
+        const auto& m = object->world_to_object.m;  // normals go to the world by its transpose
+        t = safe_normalize(Vec3f{m[0][0] * t.x + m[1][0] * t.y + m[2][0] * t.z,
+                                 m[0][1] * t.x + m[1][1] * t.y + m[2][1] * t.z,
+                                 m[0][2] * t.x + m[1][2] * t.y + m[2][2] * t.z});
+    }
+    return cross(g.n, safe_normalize(cross(t, g.n)));
+}
+
+void geometry(const Scene& scene, const ShadingGeometry& g, GeometryKind kind, const Registers& r, uint16_t out) {
+    switch (kind) {
+        case GeometryKind::Position: r.set(out, g.p); break;
+        case GeometryKind::Normal: r.set(out, g.n); break;
+        case GeometryKind::Tangent: r.set(out, geometry_tangent(scene, g)); break;
+        case GeometryKind::TrueNormal: r.set(out, g.ng); break;
+        case GeometryKind::Incoming: r.set(out, g.wo); break;
+        // The weights of corners 0 and 1 (Cycles' 1 - u - v, u: the same convention as ours).
+        case GeometryKind::Parametric: r.set(out, Vec3f{1.0f - g.u - g.v, g.u, 0.0f}); break;
+        case GeometryKind::Backfacing: r.set(out, g.front ? 0.0f : 1.0f); break;
+        case GeometryKind::Count: break;
+    }
+}
+
+// A colour attribute interpolated over the triangle (0 where the scene has none).
+void attribute(const Scene& scene, const ShadingGeometry& g, uint32_t layer, const Registers& r, const ShaderInstr& in) {
+    const CornerSource src = corners_of(scene, g);
+    if (layer >= src.colors.size() || src.colors[layer].size() < 12 * src.tri + 12) {
+        r.set(in.out[0], Vec3f(0.0f));
+        r.set(in.out[1], 0.0f);
+        return;
+    }
+    const float* c = &src.colors[layer][12 * src.tri];
+    const float w = 1.0f - g.u - g.v;
+    float v[4];
+    for (int k = 0; k < 4; ++k) v[k] = c[k] * w + c[4 + k] * g.u + c[8 + k] * g.v;
+    r.set(in.out[0], Vec3f{v[0], v[1], v[2]});
+    r.set(in.out[1], v[3]);
+}
+
+// Cycles' make_orthonormals.
+void orthonormals(const Vec3f& n, Vec3f& a, Vec3f& b) {
+    if (n.x != n.y || n.x != n.z) a = Vec3f{n.z - n.y, n.x - n.z, n.y - n.x};
+    else a = Vec3f{n.z - n.y, n.x + n.z, -n.y - n.x};
+    a = normalize(a);
+    b = cross(n, a);
+}
+
+// Cycles' differential_from_compact(Ng, dP): the offsets Bump samples the height at.
+void bump_offsets(const ShadingGeometry& g, Vec3f& dx, Vec3f& dy) {
+    orthonormals(g.ng, dx, dy);
+    dx = dx * g.footprint;
+    dy = dy * g.footprint;
+}
+
+// g moved along the surface by Bump's offset `axis` (1: dx, 2: dy), its
+// barycentrics moved with it (Cycles' du/dv differentials).
+ShadingGeometry bump_shifted(const Scene& scene, const ShadingGeometry& g, int axis) {
+    if (axis == 0) return g;
+    Vec3f dx, dy;
+    bump_offsets(g, dx, dy);
+    const Vec3f d = axis == 1 ? dx : dy;
+    ShadingGeometry s = g;
+    s.p = g.p + d;
+    if (size_t(g.tri) * 3 + 3 > scene.vertices.size()) return s;
+    const Vec3f* v = &scene.vertices[3 * size_t(g.tri)];
+    const Vec3f e1 = v[1] - v[0], e2 = v[2] - v[0];
+    // Solve d = du e1 + dv e2 in the plane of the triangle (d lies in it).
+    const float d11 = dot(e1, e1), d12 = dot(e1, e2), d22 = dot(e2, e2);
+    const float det = d11 * d22 - d12 * d12;
+    if (!(std::fabs(det) > 0.0f)) return s;
+    const float b1 = dot(d, e1), b2 = dot(d, e2);
+    s.u = g.u + (b1 * d22 - b2 * d12) / det;
+    s.v = g.v + (b2 * d11 - b1 * d12) / det;
+    return s;
+}
+
+// svm_node_set_bump (world space): the normal of the height field sampled
+// at the point and one footprint along dx and dy.
+Vec3f bump_normal(const ShadingGeometry& g, bool invert, float strength, float scale, const Vec3f& normal_in,
+                  const Vec3f& heights) {
+    Vec3f dx, dy;
+    bump_offsets(g, dx, dy);
+    const Vec3f rx = cross(dy, normal_in), ry = cross(normal_in, dx);
+    const float det = dot(dx, rx);
+    const Vec3f surfgrad = (heights.y - heights.x) * rx + (heights.z - heights.x) * ry;
+    const float absdet = std::fabs(det);
+    if (invert) scale *= -1.0f;
+    strength = std::max(strength, 0.0f);
+    const float sign = det > 0.0f ? 1.0f : (det < 0.0f ? -1.0f : 0.0f);
+    Vec3f out = safe_normalize(absdet * normal_in - scale * sign * surfgrad);
+    out = is_black(out) ? normal_in : normalize(strength * out + (1.0f - strength) * normal_in);
+    return ensure_valid_reflection(g.ng, g.wo, out);
+}
+
+// svm_node_light_path.
+float light_path(const LightPathInfo* path, LightPathKind kind) {
+    if (!path) return 0.0f;
+    auto flag = [&](uint8_t f) { return (path->flags & f) ? 1.0f : 0.0f; };
+    switch (kind) {
+        case LightPathKind::IsCamera: return flag(LightPathInfo::kCamera);
+        case LightPathKind::IsShadow: return flag(LightPathInfo::kShadow);
+        case LightPathKind::IsDiffuse: return flag(LightPathInfo::kDiffuse);
+        case LightPathKind::IsGlossy: return flag(LightPathInfo::kGlossy);
+        case LightPathKind::IsSingular: return flag(LightPathInfo::kSingular);
+        case LightPathKind::IsReflection: return flag(LightPathInfo::kReflect);
+        case LightPathKind::IsTransmission: return flag(LightPathInfo::kTransmit);
+        case LightPathKind::RayLength: return path->ray_length;
+        case LightPathKind::RayDepth: return float(path->depth) + flag(LightPathInfo::kShadow);
+        case LightPathKind::DiffuseDepth: return float(path->diffuse_depth);
+        case LightPathKind::GlossyDepth: return float(path->glossy_depth);
+        case LightPathKind::TransparentDepth: return float(path->transparent_depth);
+        case LightPathKind::TransmissionDepth: return float(path->transmission_depth);
+        case LightPathKind::Count: break;
+    }
+    return 0.0f;
+}
+
+void vector_map_range(const ShaderInstr& in, const Registers& r) {
+    if (in.op == ShaderOp::VectorMapRangeFactor) {
+        const MapRangeType type = MapRangeType(in.mode);
+        const Vec3f v = r.v(in.in[0]), lo = r.v(in.in[1]), hi = r.v(in.in[2]), steps = r.v(in.in[3]);
+        r.set(in.out[0], Vec3f{vector_map_range_factor(type, v.x, lo.x, hi.x, steps.x),
+                               vector_map_range_factor(type, v.y, lo.y, hi.y, steps.y),
+                               vector_map_range_factor(type, v.z, lo.z, hi.z, steps.z)});
+        return;
+    }
+    const bool clamp = (in.mode & kClampBit) != 0;
+    const Vec3f f = r.v(in.in[0]), lo = r.v(in.in[1]), hi = r.v(in.in[2]);
+    r.set(in.out[0], Vec3f{vector_map_range_apply(f.x, lo.x, hi.x, clamp), vector_map_range_apply(f.y, lo.y, hi.y, clamp),
+                           vector_map_range_apply(f.z, lo.z, hi.z, clamp)});
+}
+
+void run_adjust(const Scene& scene, const ShaderProgram& prog, const ShadingGeometry& g, const ShaderInstr& in,
+                const Registers& r) {
+    const bool extrapolate = (in.mode & 1) != 0;
+    switch (in.op) {
+        case ShaderOp::Curves:
+            r.set(in.out[0], svm_curves(prog.data.data() + in.data, kCurveTableSize, r.f(in.in[0]), r.v(in.in[1]),
+                                        extrapolate));
+            break;
+        case ShaderOp::FloatCurve:
+            r.set(in.out[0], svm_float_curve(prog.data.data() + in.data, kCurveTableSize, r.f(in.in[0]),
+                                             r.f(in.in[1]), extrapolate));
+            break;
+        case ShaderOp::HueSatVal: {
+            const Vec3f hsv = r.v(in.in[2]);
+            r.set(in.out[0], svm_hsv(r.f(in.in[0]), r.v(in.in[1]), hsv.x, hsv.y, hsv.z));
+            break;
+        }
+        case ShaderOp::Gamma: r.set(in.out[0], svm_gamma(r.v(in.in[0]), r.f(in.in[1]))); break;
+        case ShaderOp::BrightContrast:
+            r.set(in.out[0], svm_brightness_contrast(r.v(in.in[0]), r.f(in.in[1]), r.f(in.in[2])));
+            break;
+        case ShaderOp::MapRange: {
+            const Vec3f to = r.v(in.in[3]);
+            r.set(in.out[0], svm_map_range(MapRangeType(in.mode), r.f(in.in[0]), r.f(in.in[1]), r.f(in.in[2]), to.x,
+                                           to.y, to.z));
+            break;
+        }
+        case ShaderOp::VectorMapRangeFactor:
+        case ShaderOp::VectorMapRangeApply: vector_map_range(in, r); break;
+        case ShaderOp::ColorConvert: r.set(in.out[0], convert_color(ColorConversion(in.mode), r.v(in.in[0]))); break;
+        case ShaderOp::Fresnel:
+            r.set(in.out[0], svm_fresnel(FresnelKind(in.mode), r.f(in.in[0]), r.v(in.in[1]), g.wo, !g.front));
+            break;
+        case ShaderOp::Geometry:
+            geometry(scene, bump_shifted(scene, g, in.mode >> kBumpAxisShift), GeometryKind(in.mode & 0xFF), r,
+                     in.out[0]);
+            break;
+        case ShaderOp::LightPath: r.set(in.out[0], light_path(g.path, LightPathKind(in.mode))); break;
+        case ShaderOp::Attribute: attribute(scene, bump_shifted(scene, g, in.mode), in.data, r, in); break;
+        case ShaderOp::BumpTexCoord:
+            r.set(in.out[0], texture_coordinate(scene, bump_shifted(scene, g, in.mode >> kBumpAxisShift),
+                                                TexCoordKind(in.mode & 0xFF), in.data));
+            break;
+        case ShaderOp::Bump:
+            r.set(in.out[0], bump_normal(g, in.mode & 1, r.f(in.in[0]), r.f(in.in[1]), r.v(in.in[2]), r.v(in.in[3])));
+            break;
+        default: break;
+    }
+}
+
 void run(const Scene& scene, const ShaderProgram& prog, const ShadingGeometry& g, const Registers& r) {
     for (const ShaderInstr& in : prog.code) {
         switch (in.op) {
@@ -229,6 +423,22 @@ void run(const Scene& scene, const ShaderProgram& prog, const ShadingGeometry& g
             case ShaderOp::TexGradient:
             case ShaderOp::TexMagic:
             case ShaderOp::TexBrick: run_procedural(in, prog.data.data(), r.r); break;
+            // Colour adjustments, inputs and bump
+            case ShaderOp::Curves:
+            case ShaderOp::FloatCurve:
+            case ShaderOp::HueSatVal:
+            case ShaderOp::Gamma:
+            case ShaderOp::BrightContrast:
+            case ShaderOp::MapRange:
+            case ShaderOp::VectorMapRangeFactor:
+            case ShaderOp::VectorMapRangeApply:
+            case ShaderOp::ColorConvert:
+            case ShaderOp::Fresnel:
+            case ShaderOp::Geometry:
+            case ShaderOp::LightPath:
+            case ShaderOp::Attribute:
+            case ShaderOp::BumpTexCoord:
+            case ShaderOp::Bump: run_adjust(scene, prog, g, in, r); break;
             case ShaderOp::Count: break;
         }
     }

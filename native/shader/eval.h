@@ -10,6 +10,18 @@ struct Prototype;
 struct Scene;
 struct ShaderProgram;
 
+// The path that reached a shading point, for the Light Path node (Cycles'
+// path flags and bounce counters at that point). Filled only for programs
+// that read it (ShaderProgram::uses_light_path).
+struct LightPathInfo {
+    enum Flag : uint8_t {
+        kCamera = 1, kShadow = 2, kDiffuse = 4, kGlossy = 8, kSingular = 16, kReflect = 32, kTransmit = 64
+    };
+    uint8_t flags = kCamera;
+    float ray_length = 0.0f;
+    int depth = 0, diffuse_depth = 0, glossy_depth = 0, transparent_depth = 0, transmission_depth = 0;
+};
+
 // What a program may read at a shading point.
 struct ShadingGeometry {
     uint32_t tri = 0;
@@ -25,6 +37,10 @@ struct ShadingGeometry {
     const Prototype* prototype = nullptr;
     uint32_t prim = 0;
     Transform object_to_world, world_to_object;
+    const LightPathInfo* path = nullptr;  // null: Light Path outputs read 0
+    // Cycles' compact dP: the width the pixel's ray covers at p, the step
+    // of Bump's offsets. Filled only for programs with a Bump instruction.
+    float footprint = 0.0f;
 };
 
 // The closures and emission of `mat` at g: its constants with the program's

@@ -2,6 +2,7 @@
 // a program enters the scene so the interpreter needs no checks.
 #include "program.h"
 
+#include "node_adjust.h"
 #include "node_color.h"
 #include "node_math.h"
 #include "node_procedural.h"
@@ -42,6 +43,22 @@ OpShape shape_of(const ShaderInstr& in) {
         case ShaderOp::TexGradient:
         case ShaderOp::TexMagic:
         case ShaderOp::TexBrick: break;
+        // Colour adjustments, inputs and bump
+        case ShaderOp::Curves: return {{1, 3, 0, 0}, {3, 0}};
+        case ShaderOp::FloatCurve: return {{1, 1, 0, 0}, {1, 0}};
+        case ShaderOp::HueSatVal: return {{1, 3, 3, 0}, {3, 0}};
+        case ShaderOp::Gamma: return {{3, 1, 0, 0}, {3, 0}};
+        case ShaderOp::BrightContrast: return {{3, 1, 1, 0}, {3, 0}};
+        case ShaderOp::MapRange: return {{1, 1, 1, 3}, {1, 0}};
+        case ShaderOp::VectorMapRangeFactor: return {{3, 3, 3, 3}, {3, 0}};
+        case ShaderOp::VectorMapRangeApply: return {{3, 3, 3, 0}, {3, 0}};
+        case ShaderOp::ColorConvert: return {{3, 0, 0, 0}, {3, 0}};
+        case ShaderOp::Fresnel: return {{1, 3, 0, 0}, {1, 0}};
+        case ShaderOp::Geometry: return {{0, 0, 0, 0}, {(in.mode & 0xFF) == uint16_t(GeometryKind::Backfacing) ? 1 : 3, 0}};
+        case ShaderOp::LightPath: return {{0, 0, 0, 0}, {1, 0}};
+        case ShaderOp::Attribute: return {{0, 0, 0, 0}, {3, 1}};
+        case ShaderOp::BumpTexCoord: return {{0, 0, 0, 0}, {3, 0}};
+        case ShaderOp::Bump: return {{1, 1, 3, 3}, {3, 0}};
         case ShaderOp::Count: break;
     }
     return {{0, 0, 0, 0}, {0, 0}};
@@ -59,6 +76,20 @@ bool mode_valid(const ShaderInstr& in) {
         case ShaderOp::NormalMap: return in.mode <= uint16_t(NormalMapSpace::World);
         case ShaderOp::ImageTexture: return ((in.mode & kImageExtensionMask) >> kImageExtensionShift) <= 2;
         case ShaderOp::Clamp: return in.mode <= 1;
+        // Colour adjustments, inputs and bump
+        case ShaderOp::Curves:
+        case ShaderOp::FloatCurve: return in.mode <= 1;
+        case ShaderOp::MapRange:
+        case ShaderOp::VectorMapRangeFactor: return in.mode < uint16_t(shader::MapRangeType::Count);
+        case ShaderOp::VectorMapRangeApply: return (in.mode & ~kClampBit) == 0;
+        case ShaderOp::ColorConvert: return in.mode < uint16_t(shader::ColorConversion::Count);
+        case ShaderOp::Fresnel: return in.mode < uint16_t(shader::FresnelKind::Count);
+        case ShaderOp::Geometry: return low < uint16_t(GeometryKind::Count) && (in.mode >> kBumpAxisShift) <= 2;
+        case ShaderOp::Attribute: return in.mode <= 2;
+        case ShaderOp::BumpTexCoord:
+            return low <= uint16_t(TexCoordKind::Incoming) && (in.mode >> kBumpAxisShift) <= 2;
+        case ShaderOp::Bump: return in.mode <= 1;
+        case ShaderOp::LightPath: return in.mode < uint16_t(LightPathKind::Count);
         default: return in.op < ShaderOp::Count;
     }
 }
@@ -83,9 +114,14 @@ std::string ShaderProgram::validate(size_t image_count, size_t uv_layer_count) c
                 return where(i) + "output " + std::to_string(k) + " outside the registers";
         if (in.op == ShaderOp::ColorRamp && size_t(in.data) + 4 * kRampTableSize > data.size())
             return where(i) + "colour ramp table outside the data";
+        const size_t curve_floats = in.op == ShaderOp::Curves ? 4 * kCurveTableSize : kCurveTableSize;
+        if ((in.op == ShaderOp::Curves || in.op == ShaderOp::FloatCurve) &&
+            size_t(in.data) + shader::kCurveHeader + curve_floats > data.size())
+            return where(i) + "curve table outside the data";
         if (in.op == ShaderOp::ImageTexture && in.data >= image_count)
             return where(i) + "image " + std::to_string(in.data) + " does not exist";
-        if (in.op == ShaderOp::TexCoord && in.mode == uint16_t(TexCoordKind::Uv) && in.data >= uv_layer_count)
+        if ((in.op == ShaderOp::TexCoord || in.op == ShaderOp::BumpTexCoord) &&
+            (in.mode & 0xFF) == uint16_t(TexCoordKind::Uv) && in.data >= uv_layer_count)
             return where(i) + "UV layer " + std::to_string(in.data) + " does not exist";
         if (is_procedural(in.op)) {
             const std::string error = validate_procedural(in, data, regs);

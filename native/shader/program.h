@@ -59,6 +59,22 @@ enum class ShaderOp : uint16_t {
     TexGradient,
     TexMagic,
     TexBrick,
+    // Colour adjustments, inputs and bump (formulas: node_adjust.h)
+    Curves,               // mode: 1 = extrapolate; data: curve (min x, max x, 256 x RGBA); in a fac, b vec3; out0 vec3
+    FloatCurve,           // mode: 1 = extrapolate; data: curve (min x, max x, 256 floats); in a fac, b value; out0 float
+    HueSatVal,            // in a fac, b colour, c (hue, saturation, value); out0 vec3
+    Gamma,                // in a colour, b gamma; out0 vec3
+    BrightContrast,       // in a colour, b brightness, c contrast; out0 vec3
+    MapRange,             // mode: MapRangeType; in a value, b from min, c from max, d (to min, to max, steps); out0 float
+    VectorMapRangeFactor, // mode: MapRangeType; in a value, b from min, c from max, d steps (vec3); out0 factor vec3
+    VectorMapRangeApply,  // mode: kClampBit; in a factor, b to min, c to max (vec3); out0 vec3
+    ColorConvert,         // mode: ColorConversion; in a vec3; out0 vec3
+    Fresnel,              // mode: FresnelKind; in a IOR or blend, b normal; out0 float
+    Geometry,             // mode: GeometryKind | bump axis << 8; out0 vec3 (Backfacing: float)
+    LightPath,            // mode: LightPathKind; out0 float (ShadingGeometry::path; 0 without one)
+    Attribute,            // mode: bump axis; data: colour attribute (SceneShading::color_names); out0 colour, out1 alpha
+    BumpTexCoord,         // mode: TexCoordKind | bump axis << 8; data: UV layer; out0 vec3 (TexCoord at a bump offset)
+    Bump,                 // mode: 1 = invert; in a strength, b distance, c normal, d heights (centre, +dx, +dy); out0 vec3
     Count
 };
 
@@ -70,6 +86,18 @@ constexpr uint16_t kNonUniformBit = 0x400;
 enum class MappingType : uint16_t { Point = 0, Texture = 1, Vector = 2, Normal = 3 };
 enum class TexCoordKind : uint16_t { Uv = 0, Generated = 1, Object = 2, Normal = 3, Position = 4, Incoming = 5 };
 enum class NormalMapSpace : uint16_t { Tangent = 0, Object = 1, World = 2 };
+// Outputs of the Geometry node (Geometry's mode).
+enum class GeometryKind : uint16_t { Position, Normal, Tangent, TrueNormal, Incoming, Parametric, Backfacing, Count };
+// Outputs of the Light Path node (LightPath's mode): ray-type tests, then lengths and depths.
+enum class LightPathKind : uint16_t {
+    IsCamera, IsShadow, IsDiffuse, IsGlossy, IsSingular, IsReflection, IsTransmission, RayLength, RayDepth,
+    DiffuseDepth, GlossyDepth, TransparentDepth, TransmissionDepth, Count
+};
+// Bump offsets (Geometry, Attribute, BumpTexCoord): 0 the shading point, 1 and 2
+// one footprint along Cycles' dP.dx and dP.dy, where Bump evaluates the height again.
+constexpr int kBumpAxisShift = 8;
+// Curve tables in `data` (Curves, FloatCurve): 2 floats of x range, then the entries.
+constexpr int kCurveTableSize = 256;
 
 // Image Texture flags (ImageTexture's mode).
 enum ImageFlags : uint16_t {
@@ -124,6 +152,8 @@ struct ShaderProgram {
     // What the program reads, so export and shading simulate only that.
     bool uses_uv = false, uses_tangents = false, uses_object_space = false;
     bool drives_emission = false, drives_normal = false;
+    bool uses_light_path = false;  // a LightPath instruction: shading fills ShadingGeometry::path
+    bool uses_bump = false;        // a Bump instruction: shading fills ShadingGeometry::footprint
 
     // Empty when the invariants above hold, else what is wrong (for an
     // error that names the material). `image_count`: images in the scene,

@@ -567,6 +567,453 @@ def build_normal_map(scene, material, space):
     scene.coherent.max_bounces = 0
 
 
+# -- Colour adjustments, inputs and bump ----------------------------------------------
+
+
+def uv_color(nt, lo=0.0, hi=1.0, blue=0.35):
+    """(u, v, blue) per pixel, u and v mapped to [lo, hi]."""
+    u, v, _ = separate(nt, pixel_uv(nt))
+    return combine(nt, affine(nt, u, hi - lo, lo), affine(nt, v, hi - lo, lo), blue), u, v
+
+
+def set_curve(curve, points):
+    """Replaces a curve's points by `points` [(x, y), ...] (at least two)."""
+    while len(curve.points) > 2:
+        curve.points.remove(curve.points[-1])
+    curve.points[0].location, curve.points[1].location = points[0], points[1]
+    for x, y in points[2:]:
+        curve.points.new(x, y)
+
+
+def rgb_curves_case(extend, lo=-0.2, hi=1.2):
+    def build(nt):
+        color, u, _ = uv_color(nt, lo, hi)
+        n = node(nt, "ShaderNodeRGBCurve")
+        m = n.mapping
+        m.extend = extend
+        set_curve(m.curves[3], [(0.0, 0.1), (0.4, 0.55), (1.0, 0.9)])  # combined
+        set_curve(m.curves[0], [(0.1, 0.0), (0.6, 0.8), (1.0, 1.0)])
+        set_curve(m.curves[1], [(0.0, 0.2), (0.3, 0.1), (0.9, 1.0)])
+        set_curve(m.curves[2], [(0.0, 1.0), (1.0, 0.0)])
+        m.update()
+        n.inputs["Fac"].default_value = 0.85
+        nt.links.new(color, n.inputs["Color"])
+        return n.outputs[0]
+    return build
+
+
+def vector_curves_case(nt):
+    vector, _, _ = uv_color(nt, -1.3, 1.3, blue=-0.4)
+    n = node(nt, "ShaderNodeVectorCurve")
+    m = n.mapping
+    m.extend = "EXTRAPOLATED"
+    set_curve(m.curves[0], [(-1.0, -0.5), (0.2, 0.6), (1.0, 1.0)])
+    set_curve(m.curves[1], [(-1.0, 1.0), (1.0, -1.0)])
+    set_curve(m.curves[2], [(-0.5, 0.3), (0.8, 0.9)])
+    m.update()
+    nt.links.new(vector, n.inputs["Vector"])
+    return vector_math(nt, "ABSOLUTE", n.outputs[0])
+
+
+def float_curve_case(nt):
+    _, u, v = uv_color(nt)
+    n = node(nt, "ShaderNodeFloatCurve")
+    m = n.mapping
+    set_curve(m.curves[0], [(0.2, 0.1), (0.5, 0.9), (0.9, 0.4)])
+    m.update()
+    nt.links.new(affine(nt, u, 1.4, -0.2), n.inputs["Value"])
+    nt.links.new(v, n.inputs["Factor"])
+    return combine(nt, n.outputs[0], v, 0.5)
+
+
+def vector_math(nt, op, a, b=None):
+    m = node(nt, "ShaderNodeVectorMath", operation=op)
+    nt.links.new(a, m.inputs[0])
+    if b is not None:
+        nt.links.new(b, m.inputs[1])
+    return m.outputs[0]
+
+
+def hsv_case(nt):
+    color, u, v = uv_color(nt, 0.05, 0.95)
+    n = node(nt, "ShaderNodeHueSaturation")
+    nt.links.new(affine(nt, u, 0.8, 0.1), n.inputs["Hue"])
+    nt.links.new(affine(nt, v, 2.0, 0.0), n.inputs["Saturation"])
+    n.inputs["Value"].default_value = 1.3
+    n.inputs["Fac"].default_value = 0.9
+    nt.links.new(color, n.inputs["Color"])
+    return n.outputs[0]
+
+
+def gamma_contrast_case(nt):
+    color, u, v = uv_color(nt, -0.1, 1.1)
+    gamma = node(nt, "ShaderNodeGamma")
+    nt.links.new(color, gamma.inputs["Color"])
+    nt.links.new(affine(nt, v, 2.5, 0.2), gamma.inputs["Gamma"])
+    bc = node(nt, "ShaderNodeBrightContrast")
+    nt.links.new(gamma.outputs[0], bc.inputs["Color"])
+    nt.links.new(affine(nt, u, 0.6, -0.3), bc.inputs["Bright"])
+    bc.inputs["Contrast"].default_value = 0.7
+    return bc.outputs[0]
+
+
+def map_range_case(kind):
+    """Float Map Range three ways (clamped, reversed source, reversed target) and the vector one."""
+    def build(nt):
+        color, u, v = uv_color(nt, -0.3, 1.3)
+        outs = []
+        for lo, hi, to_lo, to_hi, clamp in ((0.1, 0.8, 0.2, 0.9, True), (0.9, 0.2, 0.0, 1.0, False),
+                                            (0.0, 1.0, 1.0, 0.1, True)):
+            n = node(nt, "ShaderNodeMapRange", data_type="FLOAT", interpolation_type=kind, clamp=clamp)
+            nt.links.new(u if len(outs) != 1 else v, n.inputs[0])
+            for k, x in zip((1, 2, 3, 4), (lo, hi, to_lo, to_hi)):
+                n.inputs[k].default_value = x
+            n.inputs[5].default_value = 3.0
+            outs.append(n.outputs[0])
+        vec = node(nt, "ShaderNodeMapRange", data_type="FLOAT_VECTOR", interpolation_type=kind, clamp=True)
+        nt.links.new(color, vec.inputs[6])
+        vec.inputs[7].default_value = (0.0, 0.9, 0.1)
+        vec.inputs[8].default_value = (1.0, 0.1, 0.1)  # z: an empty source range
+        vec.inputs[9].default_value = (0.1, 0.0, 0.2)
+        vec.inputs[10].default_value = (0.9, 1.0, 0.6)
+        vec.inputs[11].default_value = (4.0, 2.0, 3.0)
+        mixed = node(nt, "ShaderNodeMix", data_type="VECTOR")
+        mixed.inputs[0].default_value = 0.5
+        nt.links.new(combine(nt, *outs), mixed.inputs[4])
+        nt.links.new(vec.outputs[1], mixed.inputs[5])
+        return mixed.outputs[1]
+    return build
+
+
+def hsv_convert_case(nt):
+    """Separate/Combine HSV (legacy) and Separate/Combine Color in HSV and HSL modes."""
+    color, u, v = uv_color(nt, 0.0, 1.0, blue=0.6)
+    sep = node(nt, "ShaderNodeSeparateHSV")
+    nt.links.new(color, sep.inputs[0])
+    comb = node(nt, "ShaderNodeCombineHSV")
+    nt.links.new(affine(nt, sep.outputs[0], 1.0, 0.3), comb.inputs[0])  # hue past 1 wraps
+    nt.links.new(sep.outputs[1], comb.inputs[1])
+    nt.links.new(affine(nt, sep.outputs[2], 0.8, 0.0), comb.inputs[2])
+    sep_hsl = node(nt, "ShaderNodeSeparateColor", mode="HSL")
+    nt.links.new(comb.outputs[0], sep_hsl.inputs[0])
+    comb_hsl = node(nt, "ShaderNodeCombineColor", mode="HSL")
+    nt.links.new(affine(nt, sep_hsl.outputs[0], 1.0, 0.1), comb_hsl.inputs[0])
+    nt.links.new(sep_hsl.outputs[1], comb_hsl.inputs[1])
+    nt.links.new(affine(nt, sep_hsl.outputs[2], 1.2, 0.0), comb_hsl.inputs[2])
+    return comb_hsl.outputs[0]
+
+
+def uv_normal(nt):
+    """A unit normal per pixel, tilted by the pixel's UV."""
+    u, v, _ = separate(nt, pixel_uv(nt))
+    return vector_math(nt, "NORMALIZE", combine(nt, affine(nt, u, 1.6, -0.8), affine(nt, v, 1.6, -0.8), 0.5))
+
+
+def fresnel_case(nt):
+    """IOR per pixel at the default normal (facing the camera), and a tilted Normal input."""
+    u, v, _ = separate(nt, pixel_uv(nt))
+    normal = uv_normal(nt)
+    outs = []
+    for ior, linked in ((affine(nt, u, 2.0, 0.9), False), (None, True), (affine(nt, v, 1.5, 1.05), True)):
+        n = node(nt, "ShaderNodeFresnel")
+        if ior is None:
+            n.inputs["IOR"].default_value = 1.45
+        else:
+            nt.links.new(ior, n.inputs["IOR"])
+        if linked:
+            nt.links.new(normal, n.inputs["Normal"])
+        outs.append(n.outputs[0])
+    return combine(nt, *outs)
+
+
+def layer_weight_case(nt):
+    u, v, _ = separate(nt, pixel_uv(nt))
+    normal = uv_normal(nt)
+    a = node(nt, "ShaderNodeLayerWeight")
+    nt.links.new(u, a.inputs["Blend"])
+    nt.links.new(normal, a.inputs["Normal"])
+    b = node(nt, "ShaderNodeLayerWeight")
+    b.inputs["Blend"].default_value = 0.5  # Facing's pow is skipped at exactly 0.5
+    nt.links.new(normal, b.inputs["Normal"])
+    c = node(nt, "ShaderNodeLayerWeight")  # default normal: facing the camera
+    nt.links.new(v, c.inputs["Blend"])
+    add = node(nt, "ShaderNodeMath", operation="ADD")
+    nt.links.new(b.outputs["Facing"], add.inputs[0])
+    nt.links.new(c.outputs["Fresnel"], add.inputs[1])
+    return combine(nt, a.outputs["Fresnel"], a.outputs["Facing"], add.outputs[0])
+
+
+def geometry_case(nt):
+    """Position (pixel-snapped), Normal, True Normal, Incoming and Backfacing of a (tilted) plane."""
+    geo = node(nt, "ShaderNodeNewGeometry")
+    px, py, _ = separate(nt, snapped(nt, geo.outputs["Position"], 2.0 / RES))
+    dots = []
+    for name, weights in (("Normal", (0.3, -0.2, 0.25)), ("True Normal", (-0.1, 0.2, 0.15)),
+                          ("Incoming", (0.05, 0.1, 0.2))):
+        d = node(nt, "ShaderNodeVectorMath", operation="DOT_PRODUCT")
+        nt.links.new(geo.outputs[name], d.inputs[0])
+        d.inputs[1].default_value = weights
+        dots.append(d.outputs["Value"])
+    total = dots[0]
+    for term in dots[1:] + [geo.outputs["Backfacing"]]:
+        add = node(nt, "ShaderNodeMath", operation="ADD")
+        nt.links.new(total, add.inputs[0])
+        nt.links.new(term, add.inputs[1])
+        total = add.outputs[0]
+    return combine(nt, affine(nt, px, 0.4, 0.5), affine(nt, py, 0.4, 0.5), affine(nt, total, 0.5, 0.4))
+
+
+def node_abs(nt, x):
+    n = node(nt, "ShaderNodeMath", operation="ABSOLUTE")
+    nt.links.new(x, n.inputs[0])
+    return n.outputs[0]
+
+
+def geometry_smooth_case(nt):
+    """Parametric and Tangent, which vary inside a pixel (compared within SMOOTH_TOLERANCE)."""
+    geo = node(nt, "ShaderNodeNewGeometry")
+    position = snapped(nt, geo.outputs["Position"], 2.0 / RES)
+    # Pixels on the diagonal where the plane's two triangles meet (x = y)
+    # jump from one triangle's barycentrics to the other's: masked out.
+    px, py, _ = separate(nt, position)
+    gap = node(nt, "ShaderNodeMath", operation="SUBTRACT")
+    nt.links.new(px, gap.inputs[0])
+    nt.links.new(py, gap.inputs[1])
+    off_diagonal = node(nt, "ShaderNodeMath", operation="GREATER_THAN")
+    nt.links.new(node_abs(nt, gap.outputs[0]), off_diagonal.inputs[0])
+    off_diagonal.inputs[1].default_value = 0.03
+    parametric = node(nt, "ShaderNodeVectorMath", operation="SCALE")
+    nt.links.new(geo.outputs["Parametric"], parametric.inputs[0])
+    nt.links.new(off_diagonal.outputs[0], parametric.inputs["Scale"])
+    bx, by, _ = separate(nt, parametric.outputs[0])
+    tx, _, _ = separate(nt, geo.outputs["Tangent"])
+    # Near the tangent's pole (the plane's centre) it turns fast: masked out.
+    radius = node(nt, "ShaderNodeVectorMath", operation="LENGTH")
+    nt.links.new(position, radius.inputs[0])
+    mask = node(nt, "ShaderNodeMath", operation="GREATER_THAN")
+    nt.links.new(radius.outputs["Value"], mask.inputs[0])
+    mask.inputs[1].default_value = 0.5
+    blue = node(nt, "ShaderNodeMath", operation="MULTIPLY")
+    nt.links.new(affine(nt, tx, 0.5, 0.5), blue.inputs[0])
+    nt.links.new(mask.outputs[0], blue.inputs[1])
+    return combine(nt, bx, by, blue.outputs[0])
+
+
+# Cases whose value varies inside a pixel: the largest difference two points
+# of one pixel can make (gradient x pixel diagonal), instead of float rounding.
+SMOOTH_TOLERANCE = {"geometry_smooth": 0.1, "bump_wavy": 0.05}
+
+
+def flipped(build):
+    """A case seen from the plane's back (rotated half a turn about x)."""
+    def wrapped(nt):
+        return ("custom", build, _flip_plane)
+    return wrapped
+
+
+def _flip_plane(scene, plane):
+    plane.rotation_euler = (3.14159265, 0.0, 0.0)
+    return lambda: setattr(plane, "rotation_euler", (0.0, 0.0, 0.0))
+
+
+def light_path_material(nt):
+    """Emission packing Light Path outputs: R ray kinds, G reflect/transmit/shadow, B depths and length."""
+    lp = node(nt, "ShaderNodeLightPath")
+    o = lp.outputs
+
+    def weighted(terms, offset):
+        total = offset
+        for socket, w in terms:
+            m = node(nt, "ShaderNodeMath", operation="MULTIPLY_ADD")
+            nt.links.new(socket, m.inputs[0])
+            m.inputs[1].default_value = w
+            if isinstance(total, float):
+                m.inputs[2].default_value = total
+            else:
+                nt.links.new(total, m.inputs[2])
+            total = m.outputs[0]
+        return total
+    cam_length = node(nt, "ShaderNodeMath", operation="MULTIPLY")
+    nt.links.new(o["Is Camera Ray"], cam_length.inputs[0])
+    nt.links.new(o["Ray Length"], cam_length.inputs[1])
+    r = weighted([(o["Is Camera Ray"], 0.5), (o["Is Glossy Ray"], 0.25), (o["Is Singular Ray"], 0.125),
+                  (o["Is Diffuse Ray"], 0.0625)], 0.01)
+    g = weighted([(o["Is Reflection Ray"], 0.5), (o["Is Transmission Ray"], 0.25), (o["Is Shadow Ray"], 0.125)],
+                 0.01)
+    b = weighted([(o["Ray Depth"], 0.2), (o["Glossy Depth"], 0.1), (o["Diffuse Depth"], 0.05),
+                  (o["Transmission Depth"], 0.025), (o["Transparent Depth"], 0.3), (cam_length.outputs[0], 0.05)],
+                 0.01)
+    return combine(nt, r, g, b)
+
+
+def light_path_case(nt):
+    """The emitter seen directly (camera rays) and in a sharp mirror (singular glossy reflection)."""
+    return ("custom", light_path_material, _mirror_setup)
+
+
+def _mirror_setup(scene, plane):
+    """Plane at x < 0 seen directly; a 45-degree mirror at x > 0 shows a second emitter at x = 3."""
+    plane.scale = (0.5, 1.0, 1.0)
+    plane.location = (-0.5, 0.0, 0.0)
+    bpy.ops.mesh.primitive_plane_add(size=2.0, location=(0.5, 0.0, 0.0), rotation=(0.0, 0.7853982, 0.0))
+    mirror = bpy.context.active_object
+    mirror.scale = (0.375 * 2 ** 0.5, 1.0, 1.0)  # spans x in [0.125, 0.875]: edges on pixel edges
+    glossy = bpy.data.materials.new("mirror")
+    glossy.use_nodes = True
+    gnt = glossy.node_tree
+    gnt.nodes.clear()
+    out = gnt.nodes.new("ShaderNodeOutputMaterial")
+    bsdf = gnt.nodes.new("ShaderNodeBsdfGlossy")
+    bsdf.inputs["Roughness"].default_value = 0.0
+    bsdf.inputs["Color"].default_value = (1.0, 1.0, 1.0, 1.0)
+    gnt.links.new(bsdf.outputs[0], out.inputs["Surface"])
+    mirror.data.materials.append(glossy)
+    bpy.ops.mesh.primitive_plane_add(size=3.0, location=(3.0, 0.0, 0.0), rotation=(0.0, -1.5707963, 0.0))
+    wall = bpy.context.active_object
+    wall.data.materials.append(plane.material_slots[0].material)
+    bounces = scene.cycles.max_bounces, scene.coherent.max_bounces
+    scene.cycles.max_bounces = scene.coherent.max_bounces = 4
+
+    def restore():
+        for ob in (mirror, wall):
+            bpy.data.objects.remove(ob)
+        plane.scale, plane.location = (1.0, 1.0, 1.0), (0.0, 0.0, 0.0)
+        scene.cycles.max_bounces, scene.coherent.max_bounces = bounces
+    return restore
+
+
+def attribute_material(nt):
+    """Color Attribute (float, corner), Attribute of a byte colour (colour x alpha) and of a face float (Fac)."""
+    col = node(nt, "ShaderNodeVertexColor", layer_name="col_float")
+    byte = node(nt, "ShaderNodeAttribute", attribute_name="col_byte")
+    weight = node(nt, "ShaderNodeAttribute", attribute_name="weight")
+    render = node(nt, "ShaderNodeVertexColor", layer_name="")  # the render colour attribute: col_byte
+    scaled = node(nt, "ShaderNodeVectorMath", operation="SCALE")
+    nt.links.new(byte.outputs["Color"], scaled.inputs[0])
+    nt.links.new(byte.outputs["Alpha"], scaled.inputs["Scale"])
+    total = vector_math(nt, "ADD", col.outputs["Color"], scaled.outputs[0])
+    fac = node(nt, "ShaderNodeVectorMath", operation="SCALE")
+    nt.links.new(render.outputs["Color"], fac.inputs[0])
+    nt.links.new(weight.outputs["Fac"], fac.inputs["Scale"])
+    return vector_math(nt, "ADD", vector_math(nt, "SCALE", total), fac.outputs[0])
+
+
+def attribute_case(nt):
+    return ("custom", attribute_material, _attribute_grid)
+
+
+def _attribute_grid(scene, plane):
+    """An 8 x 8 grid over the plane's square, every face one colour (4 x 4 pixels each)."""
+    k = 8
+    xs = np.linspace(-1.0, 1.0, k + 1)
+    verts = [(x, y, 0.0) for y in xs for x in xs]
+    faces = [(j * (k + 1) + i, j * (k + 1) + i + 1, (j + 1) * (k + 1) + i + 1, (j + 1) * (k + 1) + i)
+             for j in range(k) for i in range(k)]
+    mesh = bpy.data.meshes.new("grid")
+    mesh.from_pydata(verts, [], faces)
+    rng = np.random.default_rng(11)
+    face_rgba = rng.random((k * k, 4), dtype=np.float32)
+    corner = np.repeat(face_rgba, 4, axis=0)
+    mesh.color_attributes.new("col_float", "FLOAT_COLOR", "CORNER").data.foreach_set("color", corner.ravel())
+    byte = mesh.color_attributes.new("col_byte", "BYTE_COLOR", "CORNER")
+    byte.data.foreach_set("color_srgb", corner[:, [2, 0, 1, 3]].ravel())
+    mesh.color_attributes.render_color_index = 1
+    mesh.attributes.new("weight", "FLOAT", "FACE").data.foreach_set("value", face_rgba[:, 0] * 2.0)
+    grid = bpy.data.objects.new("grid", mesh)
+    scene.collection.objects.link(grid)
+    mesh.materials.append(plane.material_slots[0].material)
+    plane.hide_render = True
+
+    def restore():
+        bpy.data.objects.remove(grid)
+        plane.hide_render = False
+    return restore
+
+
+def bump_case(height, invert=False, strength=1.0, distance=1.0):
+    """A diffuse plane lit by a point-like sun (direct light only), its normal from a Bump node."""
+    def build(nt):
+        return ("lit", lambda scene, material: _build_bump(scene, material, height, invert, strength, distance))
+    return build
+
+
+def _build_bump(scene, material, height, invert, strength, distance):
+    nt = material.node_tree
+    nt.nodes.clear()
+    out = nt.nodes.new("ShaderNodeOutputMaterial")
+    diffuse = node(nt, "ShaderNodeBsdfDiffuse")
+    diffuse.inputs["Color"].default_value = (0.8, 0.7, 0.6, 1.0)
+    nt.links.new(diffuse.outputs[0], out.inputs["Surface"])
+    bump = node(nt, "ShaderNodeBump", invert=invert)
+    bump.inputs["Strength"].default_value = strength
+    bump.inputs["Distance"].default_value = distance
+    nt.links.new(height(nt), bump.inputs["Height"])
+    nt.links.new(bump.outputs[0], diffuse.inputs["Normal"])
+    if "sun" not in bpy.data.objects:
+        sun = bpy.data.objects.new("sun", bpy.data.lights.new("sun", "SUN"))
+        sun.data.energy = 2.0
+        sun.data.angle = 0.0
+        sun.rotation_euler = (0.3, 0.2, 0.0)
+        scene.collection.objects.link(sun)
+    scene.cycles.max_bounces = 0
+    scene.coherent.max_bounces = 0
+
+
+def position_height(nt):
+    """A plane's height rising along (3, -2): linear, so its finite differences are exact."""
+    d = node(nt, "ShaderNodeVectorMath", operation="DOT_PRODUCT")
+    nt.links.new(node(nt, "ShaderNodeNewGeometry").outputs["Position"], d.inputs[0])
+    d.inputs[1].default_value = (3.0, -2.0, 0.0)
+    return d.outputs["Value"]
+
+
+def uv_height(nt):
+    u, v, _ = separate(nt, node(nt, "ShaderNodeTexCoord").outputs["UV"])
+    m = node(nt, "ShaderNodeMath", operation="SUBTRACT")
+    nt.links.new(affine(nt, u, 8.0, 0.0), m.inputs[0])
+    nt.links.new(affine(nt, v, 5.0, 0.0), m.inputs[1])
+    return m.outputs[0]
+
+
+def wavy_height(nt):
+    """sin(4 x) + y^2: curved, so the normal changes inside a pixel (SMOOTH_TOLERANCE)."""
+    x, y, _ = separate(nt, node(nt, "ShaderNodeTexCoord").outputs["Object"])
+    s = node(nt, "ShaderNodeMath", operation="SINE")
+    nt.links.new(affine(nt, x, 4.0, 0.0), s.inputs[0])
+    sq = node(nt, "ShaderNodeMath", operation="MULTIPLY")
+    nt.links.new(y, sq.inputs[0])
+    nt.links.new(y, sq.inputs[1])
+    add = node(nt, "ShaderNodeMath", operation="ADD")
+    nt.links.new(s.outputs[0], add.inputs[0])
+    nt.links.new(sq.outputs[0], add.inputs[1])
+    return add.outputs[0]
+
+
+def adjust_cases():
+    c = {"curves_rgb_extrapolated": rgb_curves_case("EXTRAPOLATED"),
+         "curves_rgb_horizontal": rgb_curves_case("HORIZONTAL"),
+         "curves_vector": vector_curves_case,
+         "curves_float": float_curve_case,
+         "hue_saturation": hsv_case,
+         "gamma_bright_contrast": gamma_contrast_case,
+         "hsv_hsl_convert": hsv_convert_case,
+         "fresnel": fresnel_case,
+         "fresnel_back": flipped(fresnel_case),
+         "layer_weight": layer_weight_case,
+         "layer_weight_back": flipped(layer_weight_case),
+         "geometry": geometry_case,
+         "geometry_back": flipped(geometry_case),
+         "geometry_smooth": geometry_smooth_case,
+         "light_path": light_path_case,
+         "attributes": attribute_case,
+         "bump_position": bump_case(position_height, distance=0.3),
+         "bump_uv_inverted": bump_case(uv_height, invert=True, strength=0.7, distance=0.05),
+         "bump_wavy": bump_case(wavy_height, distance=0.2)}
+    for kind in ("LINEAR", "STEPPED", "SMOOTHSTEP", "SMOOTHERSTEP"):
+        c[f"map_range_{kind.lower()}"] = map_range_case(kind)
+    return c
+
+
 def cases():
     c = {}
     for i in range(0, len(MATH_OPS), 3):
@@ -597,6 +1044,7 @@ def cases():
     c["normal_map_tangent"] = normal_map_case("TANGENT")
     c["normal_map_object"] = normal_map_case("OBJECT")
     c.update(procedural_cases())
+    c.update(adjust_cases())
     return c
 
 
@@ -732,11 +1180,19 @@ def main():
     for name in names or list(all_cases):
         nt, emission = fresh_tree(material)
         driver = all_cases[name](nt)
-        if isinstance(driver, tuple):  # a lit case that builds its own material
+        restore = None
+        if isinstance(driver, tuple) and driver[0] == "custom":  # (custom, material builder, scene setup)
+            nt.links.new(driver[1](nt), emission.inputs["Color"])
+            restore = driver[2](scene, plane)
+        elif isinstance(driver, tuple) and driver[0] == "lit":  # (lit, builder of its own lit material)
+            driver[1](scene, material)
+        elif isinstance(driver, tuple):  # a lit case that builds its own material
             build_normal_map(scene, material, driver[1])
         else:
             nt.links.new(driver, emission.inputs["Color"])
         render_both(scene, out_dir, name)
+        if restore is not None:
+            restore()
 
 
 if __name__ == "__main__":

@@ -261,3 +261,68 @@ def test_links_from_hidden_sockets_are_ignored_as_cycles_does():
     link(tex.outputs["Color"], target)
     assert gc.input_value(target) == 1.0 and builder.code == []  # the consumer's own default
 
+# -- Colour adjustments, inputs and bump ----------------------------------------------
+
+
+def map_range(kind, value, clamp=True):
+    inputs = [("Value", "VALUE", value), ("From Min", "VALUE", 0.2), ("From Max", "VALUE", 0.6),
+              ("To Min", "VALUE", 1.0), ("To Max", "VALUE", 3.0), ("Steps", "VALUE", 4.0)]
+    inputs += [(name + "_FLOAT3", "VECTOR", (0.0, 0.0, 0.0)) for name in ("Vector", "From_Min", "From_Max", "To_Min",
+                                                                          "To_Max", "Steps")]
+    return Node("ShaderNodeMapRange", inputs=inputs, outputs=[("Result",), ("Vector", "VECTOR")],
+                data_type="FLOAT", interpolation_type=kind, clamp=clamp)
+
+
+@pytest.mark.parametrize("kind, value, expected", [("LINEAR", 0.4, 2.0), ("LINEAR", 0.9, 3.0),
+                                                   ("STEPPED", 0.45, 1.0 + 2.0 * 3.0 / 4.0),
+                                                   ("SMOOTHSTEP", 0.4, 2.0), ("SMOOTHERSTEP", 0.1, 1.0)])
+def test_constant_map_range_folds_to_cycles_values(kind, value, expected):
+    # Clamped to To Min .. To Max as Cycles' MapRangeNode::expand does; stepped: floor(0.625 * 5) / 4.
+    gc, builder, warnings = compiler()
+    target = consumer()
+    link(map_range(kind, value).outputs[0], target)
+    assert gc.input_value(target) == pytest.approx(expected, rel=1e-6)
+    assert builder.code == [] and warnings == []
+
+
+def test_bump_compiles_its_height_three_times_with_shifted_positions():
+    gc, builder, warnings = compiler()
+    geometry = Node("ShaderNodeNewGeometry", outputs=[("Position", "VECTOR"), ("Normal", "VECTOR")])
+    sep = Node("ShaderNodeSeparateXYZ", inputs=[("Vector", "VECTOR", (0, 0, 0))], outputs=[("X",), ("Y",), ("Z",)])
+    link(geometry.outputs["Position"], sep.inputs[0])
+    bump = Node("ShaderNodeBump", inputs=[("Strength", "VALUE", 1.0), ("Distance", "VALUE", 1.0),
+                                          ("Height", "VALUE", 0.0), ("Normal", "VECTOR", (0, 0, 0))],
+                outputs=[("Normal", "VECTOR")], invert=False)
+    link(sep.outputs["X"], bump.inputs["Height"])
+    target = Socket(Node("ShaderNodeBsdfDiffuse"), "Normal", "VECTOR", (0, 0, 0))
+    link(bump.outputs[0], target)
+    value = gc.input_value(target)
+    geometry_modes = [row[1] for row in builder.code if row[0] == sc.OP["GEOMETRY"]]
+    position = sc.GEOMETRY_OUTPUTS.index("Position")
+    assert sorted(geometry_modes) == sorted([sc.GEOMETRY_OUTPUTS.index("Normal")] +
+                                            [position | axis << sc.BUMP_AXIS_SHIFT for axis in (0, 1, 2)])
+    assert builder.code[-1][0] == sc.OP["BUMP"] and warnings == []
+    builder.output("normal", 0, value)
+    native.Scene().add_material("m", closures=[{}], program=builder.program())  # validated natively
+
+
+def test_bump_without_a_height_passes_its_normal_through():
+    gc, builder, warnings = compiler()
+    bump = Node("ShaderNodeBump", inputs=[("Strength", "VALUE", 1.0), ("Distance", "VALUE", 1.0),
+                                          ("Height", "VALUE", 0.0), ("Normal", "VECTOR", (0, 0, 0))],
+                outputs=[("Normal", "VECTOR")], invert=False)
+    target = Socket(Node("ShaderNodeBsdfDiffuse"), "Normal", "VECTOR", (0, 0, 0))
+    link(bump.outputs[0], target)
+    gc.input_value(target)
+    assert [row[0] for row in builder.code] == [sc.OP["GEOMETRY"]]  # just the shading normal
+
+
+def test_unsupported_geometry_and_attribute_outputs_warn_with_the_node_name():
+    gc, builder, warnings = compiler()
+    geometry = Node("ShaderNodeNewGeometry", name="geo", outputs=[("Pointiness",)])
+    attribute = Node("ShaderNodeAttribute", name="attr", outputs=[("Fac",)], attribute_type="OBJECT",
+                     attribute_name="x")
+    assert gc.output_value(geometry, geometry.outputs[0]) == 0.5
+    assert gc.output_value(attribute, attribute.outputs[0]) == 0.0
+    assert any("'geo'" in w and "Pointiness" in w for w in warnings)
+    assert any("'attr'" in w for w in warnings)
