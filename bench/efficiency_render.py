@@ -102,4 +102,5 @@ def main():
         print("EFFBENCH_RENDER " + json.dumps(dict(render, seconds=seconds)), flush=True)
 
 
-main()
+if __name__ == "__main__":  # bench/efficiency_gap_render.py imports the settings
+    main()

@@ -4,7 +4,9 @@
 // world (a constant colour or an environment map, world_sampling.h).
 //
 // Selection: one emitter "unit" (each analytic light, the set of emissive
-// triangles, the world) is picked per shadow ray, with probability
+// triangles, the world: an environment map always, a constant colour only
+// when nothing else emits, see the constructor) is picked per shadow ray,
+// with probability
 //     p_i = (1 - kUniformShare) importance_i / sum(importance) + kUniformShare / units
 // (LightSelection::Power), or 1 / units (LightSelection::Uniform, the
 // selection before importance). The uniform share keeps every emitter that
@@ -128,6 +130,7 @@ private:
     std::vector<float> unit_cdf_;    // inclusive prefix sums of the units' picks, last == 1
     float tri_unit_pick_ = 0.0f, world_pick_ = 0.0f;
     bool triangles_ = false, world_ = false;
+    bool world_unit_ = false;        // the world is a unit of next-event estimation
     Vec3f world_color_{0.0f};        // constant radiance, or the map's strength
     bool has_map_ = false;           // the world is world_color_ x env_ (black if env_ is empty)
     EnvironmentSampler env_;

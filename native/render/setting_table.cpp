@@ -176,8 +176,9 @@ std::vector<SettingSpec> light_path_rows() {
                      100.0, "largest component of light after further bounces (biased); 0 = off"));
     t.push_back(flag("uniform_light_selection", "Uniform Light Selection", "Light Paths",
                      &RenderSettings::uniform_light_selection,
-                     "pick each light, the emissive meshes and the world with equal probability for shadow rays, "
-                     "instead of by their estimated power (comparisons; more noise)"));
+                     "pick each light, the emissive meshes and the world (a map; a constant world only when "
+                     "nothing else emits) with equal probability for shadow rays, instead of by their estimated "
+                     "power (comparisons; more noise)"));
     return t;
 }
 

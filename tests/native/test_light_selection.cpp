@@ -179,6 +179,7 @@ TEST(LightSelection, ProbabilitiesFollowPowerWithAUniformFloor) {
     scene.lights = {point_light({0, 0, 2}, 1.0f), point_light({1, 0, 2}, 10.0f), point_light({2, 0, 2}, 1000.0f),
                     sun_light({0, 0, -1}, 3.0f, 0.0f)};
     scene.world_color = Vec3f(0.01f);
+    scene.world_map = structured_map(8, 4);  // a map, so the world is a unit beside the lights
     scene.finalize();
     const LightSet power(scene, LightSelection::Power);
     const LightSet uniform(scene, LightSelection::Uniform);
@@ -192,12 +193,45 @@ TEST(LightSelection, ProbabilitiesFollowPowerWithAUniformFloor) {
     EXPECT_LT(power.light_pick(0), power.light_pick(1));
     EXPECT_LT(power.light_pick(1), power.light_pick(2));
     EXPECT_GT(power.light_pick(2), 0.5f);
-    // No geometry: cross-section pi; sun 3 W/m^2 -> 3 pi, world 0.01 -> 0.01 pi^2, point 1000 W.
-    const double total = 1.0 + 10.0 + 1000.0 + 3.0 * kPi + 0.01 * kPi * kPi;
+    // No geometry: cross-section pi; sun 3 W/m^2 -> 3 pi, world 0.01 x the
+    // map's mean luminance m -> 0.01 m pi^2, point 1000 W.
+    const double world = 0.01 * double(EnvironmentSampler(scene.world_map).mean_luminance()) * kPi * kPi;
+    const double total = 1.0 + 10.0 + 1000.0 + 3.0 * kPi + world;
     EXPECT_NEAR(power.light_pick(2), 0.9 * 1000.0 / total + 0.02, 1e-5);
     EXPECT_NEAR(power.light_pick(3), 0.9 * 3.0 * kPi / total + 0.02, 1e-5);
     for (size_t i = 0; i < 4; ++i) EXPECT_EQ(uniform.light_pick(i), 0.2f);
     EXPECT_EQ(uniform.world_pick(), 0.2f);
+}
+
+// A constant world beside other emitters is left to BSDF rays (Cycles 3.4):
+// no shadow ray goes to it, and a BSDF ray that escapes collects all of its
+// radiance whatever its pdf. Alone, it is next-event estimated as before.
+TEST(LightSelection, AConstantWorldBesideLightsIsLeftToBsdfRays) {
+    for (LightSelection sel : {LightSelection::Power, LightSelection::Uniform}) {
+        Scene scene;
+        scene.lights = {sun_light({0.3f, 0.2f, -1.0f}, 10.0f, 1.0f)};
+        scene.world_color = Vec3f(0.05f, 0.1f, 0.2f);
+        scene.finalize();
+        const LightSet lights(scene, sel);
+        EXPECT_EQ(lights.world_pick(), 0.0f);
+        EXPECT_EQ(lights.light_pick(0), 1.0f);
+        Uniform u(41);
+        const Vec3f n(0, 0, 1);
+        for (int i = 0; i < 1000; ++i) {
+            LightSample ls;
+            ASSERT_TRUE(lights.sample(Vec3f(0.0f), n, false, u(), u(), u(), ls));
+            EXPECT_NEAR(dot(ls.wi, normalize(Vec3f(-0.3f, -0.2f, 1.0f))), 1.0f, 1e-3f);  // always the sun
+        }
+        const Vec3f up_side = normalize(Vec3f(1, 0, 1));
+        const Vec3f got = lights.escaped(up_side, n, false, up_side.z / kPi);
+        EXPECT_FLOAT_EQ(got.x, 0.05f);
+        EXPECT_FLOAT_EQ(got.z, 0.2f);
+
+        Scene alone;
+        alone.world_color = Vec3f(0.5f);
+        alone.finalize();
+        EXPECT_EQ(LightSet(alone, sel).world_pick(), 1.0f);
+    }
 }
 
 // Irradiance at the origin on an upward surface from a set of lights, next-event
@@ -231,11 +265,11 @@ TEST(LightSelection, NextEventEstimateIsUnbiasedForEveryEmitterKind) {
     const float disk_r = 0.5f, h = 2.0f;
     scene.lights = {point_light({0, 0, 2}, 100.0f), point_light({5, 0, 0.5f}, 0.5f), sphere, sun,
                     disk_light({0, 0, h}, 40.0f, 2.0f * disk_r)};
-    scene.world_color = Vec3f(0.02f, 0.03f, 0.04f);
     scene.finalize();
     // Point: I cos / d^2, I = P / (4 pi). Sphere light: a disc facing the point,
     // I / (d^2 + r^2). Sun cone of half-angle b at angle t: E cos t (1 + cos b) / 2.
-    // Disk straight above: L pi R^2 / (h^2 + R^2), L = P / (4 A). World: pi L.
+    // Disk straight above: L pi R^2 / (h^2 + R^2), L = P / (4 A). A constant
+    // world, next-event estimated only when alone: pi L.
     Vec3f e = Vec3f(100.0f / (4.0f * kPi) / 4.0f);
     const float cos_far = 0.5f / std::sqrt(25.0f + 0.25f);
     e += Vec3f(0.5f / (4.0f * kPi) * cos_far / (25.0f + 0.25f));
@@ -243,8 +277,11 @@ TEST(LightSelection, NextEventEstimateIsUnbiasedForEveryEmitterKind) {
     e += Vec3f(3.0f * std::cos(0.5f) * (1.0f + std::cos(5.0f * kPi / 180.0f)) / 2.0f);
     const float disk_area = kPi * disk_r * disk_r;
     e += Vec3f(40.0f / (4.0f * disk_area) * kPi * disk_r * disk_r / (h * h + disk_r * disk_r));
-    e += scene.world_color * kPi;
     expect_nee_irradiance(scene, e, 21);
+    Scene world;
+    world.world_color = Vec3f(0.02f, 0.03f, 0.04f);
+    world.finalize();
+    expect_nee_irradiance(world, world.world_color * kPi, 23);
 }
 
 TEST(LightSelection, NextEventEstimateIsUnbiasedForAnEnvironmentMap) {
@@ -347,8 +384,8 @@ TEST(LightSelection, PdfFunctionsAgreeWithSample) {
         EXPECT_GT(c.checked, 1000);
         EXPECT_LE(c.mismatched, c.checked / 500) << c.mismatched << " of " << c.checked;
     }
-    for (bool map : {false, true}) {  // the world: constant (cosine-sampled) or an environment map
-        Scene scene = scene_with_points();
+    for (bool map : {false, true}) {  // the world: constant (cosine-sampled, alone) or an environment map
+        Scene scene = map ? scene_with_points() : Scene{};
         scene.world_color = Vec3f(0.5f);
         if (map) scene.world_map = structured_map(64, 32);
         scene.finalize();
