@@ -316,7 +316,8 @@ COHERENT_ALWAYS_INLINE const Material& material_at(const Scene& scene, const Hit
 COHERENT_ALWAYS_INLINE void add_lights_passed(const PathContext& ctx, PathState& s, bool found, const Hit& hit) {
     if (s.bounce > 0)
         s.out.radiance += clamp_contribution(
-            s.throughput * ctx.lights->hit_lights(s.ray.o, s.ray.d, found ? hit.t : s.ray.tmax, s.prev_pdf),
+            s.throughput * ctx.lights->hit_lights(s.ray.o, s.ray.d, found ? hit.t : s.ray.tmax, s.prev_pdf,
+                                                  s.transparent_bounce > 0 ? s.ray.tmin : 0.0f),
             s.bounce - 1, *ctx.settings);
 }
 

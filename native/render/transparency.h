@@ -14,7 +14,12 @@
 // Shadow rays see transparency deterministically (Cycles' transparent
 // shadows): the product of the transparent weights of the surfaces between
 // the point and the light, opaque once a non-transparent surface or more than
-// the remaining transparent bounces are crossed.
+// the remaining transparent bounces are crossed. In scenes with transparent
+// surfaces the state machine resolves each shadow ray itself with the
+// single-ray kernels (path_state.h, trace_transparent_shadow: one any-hit
+// test, then closest hits only if that one is occluded) and queues none for
+// the driver, so every traversal gives the same answer; those rays are not
+// in the drivers' ray statistics.
 //
 // A Holdout closure scatters nothing; while the path is still the camera's
 // (no bounce yet, pass-throughs allowed) its weight times the throughput is

@@ -2,7 +2,8 @@
 //
 // One closure type covers every BSDF the front ends produce (Principled,
 // Diffuse, Glossy, Glass, Emission, Mix and Add nodes are all expressed as
-// closure parameters and weights), so the integrator has a single, small
+// closure parameters and weights; Transparent, Translucent and Holdout as
+// closures of their ClosureKind), so the integrator has a single, small
 // shading path and SceneFeatures can tell from the parameters which lobes exist.
 #pragma once
 

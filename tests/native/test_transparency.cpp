@@ -195,3 +195,65 @@ TEST(Transparency, HoldoutCutsAlphaAndColour) {
     EXPECT_EQ(right[3], 1.0f);
     EXPECT_GT(right[0], 0.0f);
 }
+
+// Shared geometry: the filter of CameraRaysPassThroughWithoutCountingABounce
+// as two instances of one quad (one seen by the camera, one above it shading
+// the floor): camera and shadow rays pass instances as they pass meshes.
+TEST(Transparency, InstancedTransparentSurfacesPassCameraAndShadowRays) {
+    const Vec3f c{0.3f, 0.6f, 0.9f};
+    Scene s;
+    const uint32_t filter = s.add_material(closure_material(ClosureKind::Transparent, c, "filter"));
+    const uint32_t floor = s.add_material(diffuse_material(Vec3f(1.0f), "floor"));
+    add_quad(s, {0, 0, 0}, {1, 0, 0}, {0, 1, 0}, 8, 8, floor, "floor");
+    const float pos[] = {-4, -4, 0, 4, -4, 0, 4, 4, 0, -4, 4, 0};
+    const uint32_t idx[] = {0, 1, 2, 0, 2, 3};
+    MeshInput quad;
+    quad.name = "filter";
+    quad.positions = pos;
+    quad.vertex_count = 4;
+    quad.indices = idx;
+    quad.triangle_count = 2;
+    const uint32_t proto = s.add_prototype(quad);
+    Transform at[2];
+    at[0].m[2][3] = 1.0f;  // between the camera and the floor
+    at[1].m[2][3] = 3.0f;  // above the camera: only shadow rays meet it
+    ASSERT_EQ(s.add_instances(proto, at, 2, {filter}, "filters"), 2u);
+    s.lights.push_back(sun_down(3.0f));
+    s.camera = ortho_camera_looking_down(2.0f, 1.0f);
+    s.finalize();
+    ASSERT_TRUE(s.features.transparent);
+    const std::vector<float> single = render_combined(s, direct_settings(2));
+    const Vec3f m = mean_rgb(single);
+    // Through the seen filter once, and the light through both filters.
+    for (int k = 0; k < 3; ++k) EXPECT_NEAR(m[k], c[k] * c[k] * c[k] * 3.0f / kPi, 1e-5f) << "channel " << k;
+    for (Traversal t : {Traversal::Packet, Traversal::Stream, Traversal::Wavefront})
+        EXPECT_EQ(render_combined(s, direct_settings(2, t)), single) << "traversal " << int(t);
+}
+
+// A clear transparent quad above an area light changes nothing: a floor's
+// BSDF ray meets the light, then the quad, and goes on past it without
+// meeting the light a second time (hit_lights' tmin).
+TEST(Transparency, RayContinuedPastASurfaceDoesNotMeetTheLightsBeforeItAgain) {
+    auto scene = [](bool with_quad) {
+        Scene s;
+        const uint32_t clear = s.add_material(closure_material(ClosureKind::Transparent, Vec3f(1.0f), "clear"));
+        const uint32_t floor = s.add_material(diffuse_material(Vec3f(0.8f), "floor"));
+        add_quad(s, {0, 0, 0}, {1, 0, 0}, {0, 1, 0}, 8, 8, floor, "floor");
+        if (with_quad) add_quad(s, {0, 0, 3}, {1, 0, 0}, {0, 1, 0}, 8, 8, clear, "clear");
+        Light l;
+        l.type = LightType::Area;
+        l.position = {0.0f, 0.0f, 1.0f};
+        l.direction = {0.0f, 0.0f, -1.0f};
+        l.size_u = l.size_v = 1.0f;
+        l.power = 20.0f;
+        s.lights.push_back(l);
+        s.camera = ortho_camera_looking_down(0.5f, 1.0f);
+        s.finalize();
+        return s;
+    };
+    RenderSettings rs = direct_settings(16);
+    const Vec3f without = mean_rgb(render_combined(scene(false), rs));
+    const Vec3f with = mean_rgb(render_combined(scene(true), rs));
+    ASSERT_GT(without.x, 0.1f);
+    EXPECT_NEAR(with.x, without.x, 1e-5f * without.x);
+}
