@@ -8,7 +8,12 @@
 #   - a tinted Transparent BSDF pane mixed 70/30 with a diffuse (Mix Shader);
 #   - a Holdout sphere, which cuts the pixel alpha.
 #
-#   blender -b --factory-startup --addons coherent --python alpha_scene.py -- ENGINE OUT SAMPLES SIZE SEED
+#   blender -b --factory-startup --addons coherent --python alpha_scene.py -- ENGINE OUT SAMPLES SIZE SEED [nodes]
+#
+# With `nodes`, a deterministic scene instead (one sample per pixel gives the
+# exact value): an orthographic camera over an emitting plane, seen through a
+# coloured Transparent BSDF on the left half, and on the right half a Mix
+# Shader (0.5) of Holdout and Emission (colour halved, alpha 0.5).
 #
 # Writes OUT.exr (RGBA, 32-bit float, linear).
 import math
@@ -17,8 +22,10 @@ import sys
 import bpy
 import numpy as np
 
-engine, out, samples, size, seed = sys.argv[sys.argv.index("--") + 1:][:5]
+args = sys.argv[sys.argv.index("--") + 1:]
+engine, out, samples, size, seed = args[:5]
 samples, size, seed = int(samples), int(size), int(seed)
+nodes_case = args[5:6] == ["nodes"]
 
 bpy.ops.wm.read_factory_settings(use_empty=True)
 scene = bpy.context.scene
@@ -104,40 +111,84 @@ def holdout(nt):
     return nt.nodes.new("ShaderNodeHoldout").outputs["Holdout"]
 
 
+def emission(rgb):
+    def build(nt):
+        node = nt.nodes.new("ShaderNodeEmission")
+        node.inputs["Color"].default_value = (*rgb, 1.0)
+        return node.outputs["Emission"]
+    return build
+
+
+def clear_red(nt):
+    node = nt.nodes.new("ShaderNodeBsdfTransparent")
+    node.inputs["Color"].default_value = (0.2, 0.6, 0.9, 1.0)
+    return node.outputs["BSDF"]
+
+
+def half_holdout(nt):
+    mix = nt.nodes.new("ShaderNodeMixShader")
+    mix.inputs["Fac"].default_value = 0.5
+    nt.links.new(holdout(nt), mix.inputs[1])
+    nt.links.new(emission((0.4, 0.8, 0.2))(nt), mix.inputs[2])
+    return mix.outputs["Shader"]
+
+
+def build_nodes_scene():
+    quad("Glow", [(-1, -1, 0), (1, -1, 0), (1, 1, 0), (-1, 1, 0)], material("Glow", emission((1.0, 0.5, 0.25))))
+    quad("Clear", [(-1, -1, 1), (0, -1, 1), (0, 1, 1), (-1, 1, 1)], material("Clear", clear_red))
+    quad("Half", [(0, -1, 1), (1, -1, 1), (1, 1, 1), (0, 1, 1)], material("Half", half_holdout))
+    cam = bpy.data.cameras.new("Camera")
+    cam.type = "ORTHO"
+    cam.ortho_scale = 2.0
+    cam_obj = bpy.data.objects.new("Camera", cam)
+    cam_obj.location = (0.0, 0.0, 2.0)
+    scene.collection.objects.link(cam_obj)
+    scene.camera = cam_obj
+
+
 world = bpy.data.worlds.new("World")
 world.use_nodes = True
-world.node_tree.nodes["Background"].inputs["Color"].default_value = (0.05, 0.05, 0.06, 1.0)
+background = (0.0, 0.0, 0.0, 1.0) if nodes_case else (0.05, 0.05, 0.06, 1.0)
+world.node_tree.nodes["Background"].inputs["Color"].default_value = background
 scene.world = world
 
-quad("Floor", [(-4, -4, 0), (4, -4, 0), (4, 4, 0), (-4, 4, 0)], material("Floor", diffuse((0.6, 0.6, 0.6))))
-quad("Wall", [(-4, 2, 0), (4, 2, 0), (4, 2, 4), (-4, 2, 4)], material("Wall", diffuse((0.2, 0.4, 0.7))))
-quad("AlphaClip", [(-2.2, 0, 0.4), (-0.2, 0, 0.4), (-0.2, 0, 2.4), (-2.2, 0, 2.4)], material("AlphaClip", alpha_clip))
-quad("Leaf", [(0.3, 0, 0.6), (1.8, 0, 0.6), (1.8, 0.3, 2.1), (0.3, 0.3, 2.1)], material("Leaf", translucent))
-quad("Pane", [(-0.6, -1.2, 0.2), (0.6, -1.2, 0.2), (0.6, -1.2, 1.0), (-0.6, -1.2, 1.0)],
-     material("Pane", tinted_pane))
-bpy.ops.mesh.primitive_uv_sphere_add(radius=0.35, location=(1.6, -1.4, 0.35), segments=24, ring_count=12)
-bpy.context.active_object.data.materials.append(material("Holdout", holdout))
 
-sun = bpy.data.lights.new("Sun", "SUN")
-sun.energy = 3.0
-sun.angle = math.radians(2.0)
-sun_obj = bpy.data.objects.new("Sun", sun)
-sun_obj.rotation_euler = (math.radians(60.0), 0.0, math.radians(20.0))  # from the camera side, down onto the wall
-scene.collection.objects.link(sun_obj)
-point = bpy.data.lights.new("BackLight", "POINT")
-point.energy = 150.0
-point.shadow_soft_size = 0.1
-point_obj = bpy.data.objects.new("BackLight", point)
-point_obj.location = (1.0, 1.3, 1.4)  # between the leaf and the wall
-scene.collection.objects.link(point_obj)
+def build_main_scene():
+    quad("Floor", [(-4, -4, 0), (4, -4, 0), (4, 4, 0), (-4, 4, 0)], material("Floor", diffuse((0.6, 0.6, 0.6))))
+    quad("Wall", [(-4, 2, 0), (4, 2, 0), (4, 2, 4), (-4, 2, 4)], material("Wall", diffuse((0.2, 0.4, 0.7))))
+    quad("AlphaClip", [(-2.2, 0, 0.4), (-0.2, 0, 0.4), (-0.2, 0, 2.4), (-2.2, 0, 2.4)], material("AlphaClip", alpha_clip))
+    quad("Leaf", [(0.3, 0, 0.6), (1.8, 0, 0.6), (1.8, 0.3, 2.1), (0.3, 0.3, 2.1)], material("Leaf", translucent))
+    quad("Pane", [(-0.6, -1.2, 0.2), (0.6, -1.2, 0.2), (0.6, -1.2, 1.0), (-0.6, -1.2, 1.0)],
+         material("Pane", tinted_pane))
+    bpy.ops.mesh.primitive_uv_sphere_add(radius=0.35, location=(1.6, -1.4, 0.35), segments=24, ring_count=12)
+    bpy.context.active_object.data.materials.append(material("Holdout", holdout))
 
-cam = bpy.data.cameras.new("Camera")
-cam.angle = math.radians(50.0)
-cam_obj = bpy.data.objects.new("Camera", cam)
-cam_obj.location = (0.0, -6.0, 1.6)
-cam_obj.rotation_euler = (math.radians(85.0), 0.0, 0.0)
-scene.collection.objects.link(cam_obj)
-scene.camera = cam_obj
+    sun = bpy.data.lights.new("Sun", "SUN")
+    sun.energy = 3.0
+    sun.angle = math.radians(2.0)
+    sun_obj = bpy.data.objects.new("Sun", sun)
+    sun_obj.rotation_euler = (math.radians(60.0), 0.0, math.radians(20.0))  # from the camera side, down onto the wall
+    scene.collection.objects.link(sun_obj)
+    point = bpy.data.lights.new("BackLight", "POINT")
+    point.energy = 150.0
+    point.shadow_soft_size = 0.1
+    point_obj = bpy.data.objects.new("BackLight", point)
+    point_obj.location = (1.0, 1.3, 1.4)  # between the leaf and the wall
+    scene.collection.objects.link(point_obj)
+
+    cam = bpy.data.cameras.new("Camera")
+    cam.angle = math.radians(50.0)
+    cam_obj = bpy.data.objects.new("Camera", cam)
+    cam_obj.location = (0.0, -6.0, 1.6)
+    cam_obj.rotation_euler = (math.radians(85.0), 0.0, 0.0)
+    scene.collection.objects.link(cam_obj)
+    scene.camera = cam_obj
+
+
+if nodes_case:
+    build_nodes_scene()
+else:
+    build_main_scene()
 
 r = scene.render
 r.engine = engine
