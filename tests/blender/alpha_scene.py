@@ -8,25 +8,25 @@
 #   - a tinted Transparent BSDF pane mixed 70/30 with a diffuse (Mix Shader);
 #   - a Holdout sphere, which cuts the pixel alpha.
 #
-#   blender -b --factory-startup --addons coherent --python alpha_scene.py -- ENGINE OUT SAMPLES SIZE SEED [nodes]
+#   blender -b --factory-startup --addons coherent --python alpha_scene.py -- ENGINE OUT SAMPLES SIZE SEED
 #
-# With `nodes`, a deterministic scene instead (one sample per pixel gives the
-# exact value): an orthographic camera over an emitting plane, seen through a
-# coloured Transparent BSDF on the left half, and on the right half a Mix
-# Shader (0.5) of Holdout and Emission (colour halved, alpha 0.5).
-#
-# Writes OUT.exr (RGBA, 32-bit float, linear).
+# Writes OUT.exr (RGBA, 32-bit float, linear), then OUT_nodes.exr: a
+# deterministic scene (one sample per pixel gives the exact value, 32 x 32):
+# an orthographic camera over an emitting plane, seen through a coloured
+# Transparent BSDF on the left half, and on the right half a Mix Shader (0.5)
+# of Holdout and Emission (colour halved, alpha 0.5).
 import math
 import sys
+from pathlib import Path
 
 import bpy
 import numpy as np
 
-args = sys.argv[sys.argv.index("--") + 1:]
-engine, out, samples, size, seed = args[:5]
-samples, size, seed = int(samples), int(size), int(seed)
-nodes_case = args[5:6] == ["nodes"]
+sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "blend_scenes"))
+from cycles_reference import configure_cycles_reference  # noqa: E402
 
+engine, out, samples, size, seed = sys.argv[sys.argv.index("--") + 1:][:5]
+samples, size, seed = int(samples), int(size), int(seed)
 bpy.ops.wm.read_factory_settings(use_empty=True)
 scene = bpy.context.scene
 BOUNCES = dict(max_bounces=3, diffuse_bounces=3, glossy_bounces=3, transmission_bounces=3,
@@ -146,13 +146,6 @@ def build_nodes_scene():
     scene.camera = cam_obj
 
 
-world = bpy.data.worlds.new("World")
-world.use_nodes = True
-background = (0.0, 0.0, 0.0, 1.0) if nodes_case else (0.05, 0.05, 0.06, 1.0)
-world.node_tree.nodes["Background"].inputs["Color"].default_value = background
-scene.world = world
-
-
 def build_main_scene():
     quad("Floor", [(-4, -4, 0), (4, -4, 0), (4, 4, 0), (-4, 4, 0)], material("Floor", diffuse((0.6, 0.6, 0.6))))
     quad("Wall", [(-4, 2, 0), (4, 2, 0), (4, 2, 4), (-4, 2, 4)], material("Wall", diffuse((0.2, 0.4, 0.7))))
@@ -185,36 +178,46 @@ def build_main_scene():
     scene.camera = cam_obj
 
 
-if nodes_case:
-    build_nodes_scene()
-else:
-    build_main_scene()
+def render_case(nodes_case, path, spp, pixels):
+    # (A second read_factory_settings() would unregister the add-on.)
+    for ob in list(scene.objects):
+        bpy.data.objects.remove(ob, do_unlink=True)
+    world = bpy.data.worlds.new("World")
+    world.use_nodes = True
+    background = (0.0, 0.0, 0.0, 1.0) if nodes_case else (0.05, 0.05, 0.06, 1.0)
+    world.node_tree.nodes["Background"].inputs["Color"].default_value = background
+    scene.world = world
+    if nodes_case:
+        build_nodes_scene()
+    else:
+        build_main_scene()
 
-r = scene.render
-r.engine = engine
-r.resolution_x = r.resolution_y = size
-r.resolution_percentage = 100
-r.film_transparent = False
-r.image_settings.file_format = "OPEN_EXR"
-r.image_settings.color_mode = "RGBA"
-r.image_settings.color_depth = "32"
-r.filepath = out + ".exr"
-scene.view_settings.view_transform = "Standard"
+    r = scene.render
+    r.engine = engine
+    r.resolution_x = r.resolution_y = pixels
+    r.resolution_percentage = 100
+    r.film_transparent = False
+    r.image_settings.file_format = "OPEN_EXR"
+    r.image_settings.color_mode = "RGBA"
+    r.image_settings.color_depth = "32"
+    r.filepath = path
+    scene.view_settings.view_transform = "Standard"
 
-sys.path.insert(0, str(__import__("pathlib").Path(__file__).resolve().parents[2] / "blend_scenes"))
-from cycles_reference import configure_cycles_reference  # noqa: E402
-
-c = configure_cycles_reference(scene, samples)
-c.seed = seed
-for key, value in BOUNCES.items():
-    setattr(c, key, value)
-if engine == "COHERENT":
-    s = scene.coherent
-    s.samples = samples
-    s.seed = seed
-    s.sampler = "SPT"
-    s.clamp_direct = s.clamp_indirect = 0.0
+    c = configure_cycles_reference(scene, spp)
+    c.seed = seed
     for key, value in BOUNCES.items():
-        setattr(s, key, value)
-bpy.ops.render.render(write_still=True)
-print("ALPHA_SCENE_WRITTEN", r.filepath)
+        setattr(c, key, value)
+    if engine == "COHERENT":
+        s = scene.coherent
+        s.samples = spp
+        s.seed = seed
+        s.sampler = "SPT"
+        s.clamp_direct = s.clamp_indirect = 0.0
+        for key, value in BOUNCES.items():
+            setattr(s, key, value)
+    bpy.ops.render.render(write_still=True)
+    print("ALPHA_SCENE_WRITTEN", r.filepath)
+
+
+render_case(False, out + ".exr", samples, size)
+render_case(True, out + "_nodes.exr", 1, 32)

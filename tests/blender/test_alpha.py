@@ -24,18 +24,26 @@ BLOCK_TOLERANCE = 0.08
 BLOCK_FLOOR = 0.004  # absolute: blocks near black in both engines
 ALPHA_BLOCK_TOLERANCE = 0.02
 
+_RENDERS = {}  # engine -> renders, shared by the tests of one session
 
-def render(blender, engine, tmp_path):
-    out = tmp_path / engine.lower()
-    result = blender("--python", SCRIPT, "--", engine, out, SAMPLES, SIZE, SEED, timeout=400)
-    assert result.returncode == 0, result.describe()
-    log = result.stdout + result.stderr
-    path = Path(str(out) + ".exr")
-    assert path.is_file(), result.describe()
+
+def read_rgba(path):
     channels = bh.read_image_channels(path)
     rgba = np.stack([channels[n] for n in sorted(channels, key=lambda n: "RGBA".index(n.split(".")[-1]))], axis=-1)
-    assert rgba.shape == (SIZE, SIZE, 4) and np.isfinite(rgba).all()
-    return rgba.astype(np.float64), log
+    assert np.isfinite(rgba).all()
+    return rgba.astype(np.float64)
+
+
+def render(blender, engine, tmp_path):
+    """(main scene RGBA, deterministic nodes scene RGBA, log) of one engine, rendered once per session."""
+    if engine not in _RENDERS:
+        out = tmp_path / engine.lower()
+        result = blender("--python", SCRIPT, "--", engine, out, SAMPLES, SIZE, SEED, timeout=400)
+        assert result.returncode == 0, result.describe()
+        main, nodes = read_rgba(Path(str(out) + ".exr")), read_rgba(Path(str(out) + "_nodes.exr"))
+        assert main.shape == (SIZE, SIZE, 4) and nodes.shape == (32, 32, 4)
+        _RENDERS[engine] = (main, nodes, result.stdout + result.stderr)
+    return _RENDERS[engine]
 
 
 def block_means(img):
@@ -44,8 +52,8 @@ def block_means(img):
 
 
 def test_alpha_scene_matches_cycles(blender, tmp_path):
-    ours, log = render(blender, bh.ENGINE_ID, tmp_path)
-    cycles, _ = render(blender, "CYCLES", tmp_path)
+    ours, _, log = render(blender, bh.ENGINE_ID, tmp_path)
+    cycles, _, _ = render(blender, "CYCLES", tmp_path)
     assert "not supported" not in log and "unsupported" not in log, log
 
     mean_ours, mean_cycles = ours[..., :3].mean(axis=(0, 1)), cycles[..., :3].mean(axis=(0, 1))
@@ -112,14 +120,8 @@ def test_transparent_and_holdout_nodes_match_cycles_exactly(blender, tmp_path):
     """Deterministic at 1 sample per pixel: an emitter seen through a Transparent BSDF
     shows colour x emission; a 50/50 Mix of Holdout and Emission halves the colour and
     the alpha. Cycles must agree pixel for pixel (float rounding)."""
-    def render_nodes(engine):
-        out = tmp_path / f"nodes_{engine.lower()}"
-        result = blender("--python", SCRIPT, "--", engine, out, 1, 32, 0, "nodes", timeout=200)
-        assert result.returncode == 0, result.describe()
-        channels = bh.read_image_channels(Path(str(out) + ".exr"))
-        return np.stack([channels[n] for n in sorted(channels, key=lambda n: "RGBA".index(n.split(".")[-1]))],
-                        axis=-1).astype(np.float64)
-    ours, cycles = render_nodes(bh.ENGINE_ID), render_nodes("CYCLES")
+    _, ours, _ = render(blender, bh.ENGINE_ID, tmp_path)
+    _, cycles, _ = render(blender, "CYCLES", tmp_path)
     left, right = ours[:, :16], ours[:, 16:]
     np.testing.assert_allclose(left[..., :3], np.broadcast_to([0.2, 0.3, 0.225], left[..., :3].shape), atol=1e-5)
     np.testing.assert_allclose(right, np.broadcast_to([0.2, 0.4, 0.1, 0.5], right.shape), atol=1e-5)
