@@ -408,7 +408,8 @@ COHERENT_ALWAYS_INLINE Vec3f transparency_at(const Scene& scene, const PathState
 // the state machine, so that every driver gets the same answer (transparency.h).
 // An unoccluded ray adds its contribution; an occluded one is walked hit by
 // hit through transparent surfaces. The driver then has nothing to trace.
-inline void trace_transparent_shadow(const PathContext& ctx, PathState& s) {
+// Kept out of line: opaque scenes never call it, and shade_hit stays small.
+[[gnu::noinline]] inline void trace_transparent_shadow(const PathContext& ctx, PathState& s) {
     s.has_shadow = false;
     const Ray& r = s.shadow;
     Vec3f t(1.0f);
