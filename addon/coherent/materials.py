@@ -12,6 +12,11 @@ flattens Mix/Add shader nodes into that form:
 * Glossy / Anisotropic BSDF: a metal closure whose F0 is the node colour.
 * Glass / Refraction BSDF: a fully transmissive closure.
 * Emission: adds colour x strength to the emission; contributes no closure.
+* Transparent / Translucent BSDF: closures of kind 'transparent' / 'translucent'
+  with the node colour; Holdout: a 'holdout' closure (native/render/transparency.h).
+* Principled Alpha < 1 (or linked): as Cycles expands it, a Mix Shader of a white
+  Transparent BSDF (weight 1 - alpha) and the Principled BSDF with its emission
+  (weight alpha).
 * Mix Shader: weights (1 - fac, fac); Add Shader: both branches at full weight.
 
 A linked input (texture, maths, node group, ...) is compiled into the
@@ -291,6 +296,14 @@ class MaterialConverter:
             flat.add_closure(weight, self._with_normal(node, dict(
                 _DEFAULT_CLOSURE, base_color=self._color(material, node, "Color"), roughness=roughness,
                 transmission=1.0, ior=max(ior, 1e-3), specular=_specular_from_ior(max(ior, 1e-3)))))
+        elif kind in ("ShaderNodeBsdfTransparent", "ShaderNodeBsdfTranslucent"):
+            closure = dict(kind="transparent" if kind == "ShaderNodeBsdfTransparent" else "translucent",
+                           base_color=self._color(material, node, "Color"))
+            if kind == "ShaderNodeBsdfTranslucent":
+                self._with_normal(node, closure)
+            flat.add_closure(weight, closure)
+        elif kind == "ShaderNodeHoldout":
+            flat.add_closure(weight, dict(kind="holdout"))
         elif kind == "ShaderNodeEmission":
             color = self._color(material, node, "Color")
             strength = self._value(material, node, "Strength")
@@ -324,17 +337,29 @@ class MaterialConverter:
         ignored = [name for name, unused in (
             ("Subsurface", 0.0), ("Sheen", 0.0), ("Clearcoat", 0.0), ("Anisotropic", 0.0), ("Specular Tint", 0.0),
         ) if name in node.inputs and self._value(material, node, name, check_link=False) > unused]
-        if "Alpha" in node.inputs and self._value(material, node, "Alpha", check_link=False) < 1.0:
-            ignored.append("Alpha")
         for name in ("Clearcoat Normal", "Tangent"):
             if name in node.inputs and _linked_source(node.inputs[name]) is not None:
                 ignored.append(f"{name} (linked)")
         if ignored:
             self._warn(material, "Principled BSDF inputs not supported (ignored): " + ", ".join(ignored))
+        weight = self._principled_alpha(material, node, weight, flat)
         flat.add_closure(weight, closure)
         emission = self._color(material, node, "Emission")
         strength = self._value(material, node, "Emission Strength")
         self._add_emission(flat, weight, emission, strength)
+
+    def _principled_alpha(self, material, node, weight, flat):
+        """Cycles' expansion of Alpha: a white Transparent BSDF at weight (1 - alpha); returns the
+        weight left for the Principled BSDF and its emission."""
+        if "Alpha" not in node.inputs:
+            return weight
+        alpha = self._value(material, node, "Alpha")
+        if is_constant(alpha) and alpha >= 1.0:
+            return weight
+        b = self._builder
+        alpha = _unit_clamped(b, alpha)
+        flat.add_closure(_product(b, weight, _one_minus(b, alpha)), dict(kind="transparent", base_color=(1.0, 1.0, 1.0)))
+        return _product(b, weight, alpha)
 
     def _add_emission(self, flat, weight, color, strength):
         if is_constant(color) and is_constant(strength):

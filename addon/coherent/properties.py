@@ -45,6 +45,7 @@ TABLE_PROPERTIES = {
     "diffuse_bounces": ("diffuse_bounces", {}),
     "glossy_bounces": ("glossy_bounces", {}),
     "transmission_bounces": ("transmission_bounces", {}),
+    "transparent_max_bounces": ("transparent_max_bounces", {}),
     "clamp_direct": ("clamp_direct", {}),
     "clamp_indirect": ("clamp_indirect", {}),
     "uniform_light_selection": ("uniform_light_selection", {}),

@@ -115,8 +115,29 @@ const tinygltf::Value* get_extension(const tinygltf::ExtensionMap& extensions, c
 
 float clamp01(double v) { return float(std::min(std::max(v, 0.0), 1.0)); }
 
+// alphaMode MASK / BLEND: the Principled BSDF mixed with a white Transparent
+// closure, as Cycles expands a Principled BSDF's Alpha (weights alpha and
+// 1 - alpha, emission scaled by alpha). Alpha is baseColorFactor's fourth
+// component, cut at alphaCutoff for MASK; a base colour texture's alpha is
+// multiplied in by its program (gltf_textures.cpp), which then needs the
+// transparent closure even where the factor alone is opaque.
+void convert_alpha(const tinygltf::Material& in, Material& m) {
+    if (in.alphaMode != "MASK" && in.alphaMode != "BLEND") return;
+    const auto& pbr = in.pbrMetallicRoughness;
+    float alpha = pbr.baseColorFactor.size() >= 4 ? clamp01(pbr.baseColorFactor[3]) : 1.0f;
+    if (in.alphaMode == "MASK") alpha = alpha >= float(in.alphaCutoff) ? 1.0f : 0.0f;
+    if (alpha >= 1.0f && pbr.baseColorTexture.index < 0) return;
+    Closure transparent;
+    transparent.kind = ClosureKind::Transparent;
+    transparent.base_color = Vec3f(1.0f);
+    m.closures[1] = transparent;
+    m.weights = {alpha, 1.0f - alpha, 0.0f, 0.0f};
+    m.closure_count = 2;
+    m.emission = m.emission * alpha;
+}
+
 // glTF metallic-roughness material -> the Principled BSDF Blender's importer
-// builds (constant inputs only: textures are not used).
+// builds (constant inputs here; textures: gltf_textures.cpp).
 Material convert_material(const tinygltf::Material& in) {
     Material m;
     m.name = in.name;
@@ -150,6 +171,7 @@ Material convert_material(const tinygltf::Material& in) {
     }
     m.weights = {1.0f, 0.0f, 0.0f, 0.0f};
     m.closure_count = 1;
+    convert_alpha(in, m);
     return m;
 }
 

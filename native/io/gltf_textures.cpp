@@ -9,6 +9,7 @@
 #include <filesystem>
 #include <memory>
 
+#include "shader/node_math.h"
 #include "shader/program.h"
 #include "shader/textures.h"
 
@@ -178,6 +179,16 @@ struct ProgramWriter {
         in.out[0] = out;
         return out;
     }
+    // Math node `op` of float registers a and b, into a new register.
+    uint16_t math(shader::MathOp op, uint16_t a, uint16_t b) {
+        const uint16_t out = alloc(1);
+        ShaderInstr& in = emit(ShaderOp::Math, uint16_t(op));
+        in.in[0] = a;
+        in.in[1] = b;
+        in.in[2] = b;
+        in.out[0] = out;
+        return out;
+    }
     // Component-wise product of vec3 registers a and b, into a new register.
     uint16_t multiply(uint16_t a, uint16_t b) {
         const uint16_t out = alloc(3), unused = constant(0.0f);
@@ -191,14 +202,16 @@ struct ProgramWriter {
     }
 };
 
-uint16_t TextureImporter::lookup(ProgramWriter& prog, const tinygltf::TextureInfo& info, bool srgb, bool& ok) {
+uint16_t TextureImporter::lookup(ProgramWriter& prog, const tinygltf::TextureInfo& info, bool srgb, bool& ok,
+                                 bool alpha_used) {
     const uint32_t image = image_index(info.index, ok);
     if (!ok || info.texCoord < 0) {
         ok = false;
         return 0;
     }
-    // As Blender imports it: colour textures sRGB, data linear; alpha output unused.
-    uint16_t flags = srgb ? uint16_t(kImageSrgb | kImagePremultiply) : uint16_t(0);
+    // As Blender imports it: colour textures sRGB, data linear. An unused alpha
+    // output leaves Cycles' colour associated (premultiplied); a used one straight.
+    uint16_t flags = srgb ? uint16_t(kImageSrgb | (alpha_used ? 0 : kImagePremultiply)) : uint16_t(0);
     const int sampler = model_.textures[size_t(info.index)].sampler;
     if (sampler >= 0 && size_t(sampler) < model_.samplers.size()) {
         const tinygltf::Sampler& s = model_.samplers[size_t(sampler)];
@@ -230,13 +243,30 @@ uint16_t TextureImporter::lookup(ProgramWriter& prog, const tinygltf::TextureInf
     return color;
 }
 
+// Closure weights alpha (Principled) and 1 - alpha (Transparent) from the
+// texture's alpha register times the factor, cut at alphaCutoff for MASK.
+static void texture_alpha(const tinygltf::Material& in, uint16_t texture_alpha, ProgramWriter& prog) {
+    const auto& factor = in.pbrMetallicRoughness.baseColorFactor;
+    uint16_t alpha = prog.math(shader::MathOp::Multiply, texture_alpha,
+                               prog.constant(factor.size() >= 4 ? float(std::clamp(factor[3], 0.0, 1.0)) : 1.0f));
+    const uint16_t one = prog.constant(1.0f);
+    if (in.alphaMode == "MASK")
+        alpha = prog.math(shader::MathOp::Subtract, one, prog.math(shader::MathOp::LessThan, alpha, prog.constant(float(in.alphaCutoff))));
+    prog.p->outputs.push_back({ShaderField::Weight, 0, alpha});
+    prog.p->outputs.push_back({ShaderField::Weight, 1, prog.math(shader::MathOp::Subtract, one, alpha)});
+}
+
 void TextureImporter::apply(const tinygltf::Material& in, Material& m) {
     ProgramWriter prog;
     Closure& c = m.closures[0];
     bool ok = false;
     const auto& pbr = in.pbrMetallicRoughness;
-    if (const uint16_t color = lookup(prog, pbr.baseColorTexture, true, ok); ok)
+    // convert_alpha() gave alpha-blended and masked materials their transparent closure.
+    const bool alpha_used = m.closure_count == 2 && m.closures[1].kind == ClosureKind::Transparent;
+    if (const uint16_t color = lookup(prog, pbr.baseColorTexture, true, ok, alpha_used); ok) {
         prog.p->outputs.push_back({ShaderField::BaseColor, 0, prog.multiply(color, prog.constant(c.base_color))});
+        if (alpha_used) texture_alpha(in, uint16_t(color + 3), prog);  // lookup's alpha follows its colour
+    }
     // metallicRoughnessTexture: roughness in G, metalness in B (glTF), times the factors.
     if (const uint16_t mr = lookup(prog, pbr.metallicRoughnessTexture, false, ok); ok) {
         const uint16_t scaled = prog.multiply(mr, prog.constant(Vec3f{1.0f, c.roughness, c.metallic}));

@@ -34,7 +34,9 @@ public:
 
 private:
     // The texture's RGB at its TEXCOORD set, in a new vec3 register of `prog`.
-    uint16_t lookup(ProgramWriter& prog, const tinygltf::TextureInfo& info, bool srgb, bool& ok);
+    // alpha_used: the alpha output (the next register) is read, so the colour stays straight.
+    uint16_t lookup(ProgramWriter& prog, const tinygltf::TextureInfo& info, bool srgb, bool& ok,
+                    bool alpha_used = false);
     uint32_t image_index(int texture, bool& ok);
     uint32_t uv_layer(int set);
     uint32_t add_embedded(const tinygltf::Image& image, const std::string& label);

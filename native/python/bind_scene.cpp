@@ -10,6 +10,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstring>
+#include <iterator>
 #include <limits>
 #include <sstream>
 #include <vector>
@@ -101,6 +102,16 @@ const uint32_t* index_array(const py::handle& obj, std::initializer_list<py::ssi
 
 float unit_clamp(double v, const char* arg) { return std::clamp(finite_float(v, arg), 0.0f, 1.0f); }
 
+constexpr const char* kClosureKinds[] = {"principled", "transparent", "translucent", "holdout"};
+
+ClosureKind closure_kind_from(const py::handle& v, const std::string& arg) {
+    const std::string name = py::str(v);
+    for (size_t k = 0; k < std::size(kClosureKinds); ++k)
+        if (name == kClosureKinds[k]) return ClosureKind(k);
+    throw py::value_error(arg + ": unknown closure kind '" + name +
+                          "' (expected principled, transparent, translucent or holdout)");
+}
+
 Closure closure_from_dict(const py::dict& d, size_t index) {
     Closure c;
     for (auto item : d) {
@@ -116,12 +127,14 @@ Closure closure_from_dict(const py::dict& d, size_t index) {
             if (!PyBool_Check(v.ptr())) throw py::type_error(arg + ": expected True or False");
             c.principled_diffuse = v.cast<bool>();
         }
+        else if (key == "kind") c.kind = closure_kind_from(v, arg);
         else if (key == "ior") {
             c.ior = finite_float(number_arg(v, arg), arg.c_str());
             if (!(c.ior > 0.0f)) throw py::value_error(arg + ": index of refraction must be > 0");
         } else {
             throw py::value_error("closures[" + std::to_string(index) + "]: unknown key '" + key +
-                                  "' (expected base_color, metallic, roughness, specular, transmission, ior, principled_diffuse)");
+                                  "' (expected base_color, metallic, roughness, specular, transmission, ior, principled_diffuse, "
+                                  "kind)");
         }
     }
     return c;
@@ -476,6 +489,7 @@ py::dict material_dict(const Material& m) {
         cd["transmission"] = c.transmission;
         cd["ior"] = c.ior;
         cd["principled_diffuse"] = c.principled_diffuse;
+        cd["kind"] = kClosureKinds[size_t(c.kind)];
         closures.append(cd);
         weights.append(m.weights[size_t(i)]);
     }
@@ -744,7 +758,8 @@ counted in `dropped`. Returns the number of triangles added.)doc")
 closures: up to 4 dicts with keys base_color, metallic, roughness, specular,
 transmission, ior, principled_diffuse (missing keys take Principled BSDF defaults,
 except principled_diffuse: False is Lambert, True Cycles' Principled diffuse; [0,1] values
-are clamped). An empty list means no BSDF (black, e.g. pure emission).
+are clamped), kind ('principled' default; 'transparent', 'translucent': Cycles' closures of
+colour base_color; 'holdout'). An empty list means no BSDF (black, e.g. pure emission).
 weights: one non-negative weight per closure (default: equal, summing to 1).
 emission: emitted radiance (colour x strength).
 program: optional shader program dict (code, constants, data, outputs; see

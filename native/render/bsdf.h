@@ -32,7 +32,9 @@
 
 namespace coherent {
 
-enum class LobeKind : uint8_t { Diffuse, Reflection, Glass };
+// Transparent: straight through (delta), a pass-through rather than a bounce
+// (BsdfSample::transparent). Translucent: Lambert on the far side.
+enum class LobeKind : uint8_t { Diffuse, Reflection, Glass, Transparent, Translucent };
 
 struct Lobe {
     LobeKind kind = LobeKind::Diffuse;
@@ -52,6 +54,7 @@ struct BsdfSample {
     Vec3f weight;
     float pdf = 0.0f;       // 0 for delta samples
     bool delta = false;
+    bool transparent = false;  // the Transparent lobe: the ray goes on unchanged (render/transparency.h)
     RayType type = RayType::Diffuse;
 };
 
@@ -97,6 +100,10 @@ public:
             const float w = mat.weights[c];
             if (!(w > 0.0f)) continue;
             const Closure& cl = mat.closures[c];
+            if (cl.kind != ClosureKind::Principled) {
+                add_non_principled(cl, w);
+                continue;
+            }
             const ClosureLobes lw = closure_lobes(cl);
             const float rough = std::clamp(cl.roughness, 0.0f, 1.0f);
             const bool sharp = rough <= kSharpRoughness;
@@ -189,6 +196,17 @@ public:
                 wi = sample_cosine_hemisphere(u1, u2);
                 s.type = RayType::Diffuse;
                 break;
+            case LobeKind::Translucent:
+                wi = -sample_cosine_hemisphere(u1, u2);
+                s.type = RayType::Diffuse;  // Cycles counts it as a diffuse bounce
+                break;
+            case LobeKind::Transparent:
+                s.wi = -from_local(wo_);
+                s.delta = true;
+                s.pdf = 0.0f;
+                s.weight = l.weight / l.pick;
+                s.transparent = true;
+                return true;
             case LobeKind::Reflection:
                 if (l.sharp) {
                     wi = Vec3f(-wo_.x, -wo_.y, wo_.z);
@@ -225,6 +243,22 @@ public:
     Vec3f from_local(const Vec3f& w) const { return t_ * w.x + b_ * w.y + n_ * w.z; }
 
 private:
+    // A Transparent, Translucent or Holdout closure of weight w (a holdout
+    // scatters nothing: shading reads its weight off the material).
+    void add_non_principled(const Closure& cl, float w) {
+        if (cl.kind == ClosureKind::Holdout || is_black(cl.base_color)) return;
+        Lobe& l = lobes_[count_++];
+        l.weight = cl.base_color * w;
+        l.pick = luminance(l.weight);
+        if (cl.kind == ClosureKind::Transparent) {
+            l.kind = LobeKind::Transparent;
+            l.sharp = true;
+        } else {
+            l.kind = LobeKind::Translucent;
+            transmissive_ = true;
+        }
+    }
+
     static Vec3f fresnel_of(const Lobe& l, float cos_i) {
         return fresnel_interpolated(l.f0, cos_i, l.fresnel_ior, l.fresnel_f0);
     }
@@ -277,6 +311,12 @@ private:
                 const Vec3f f = l.weight * (wi.z * kInvPi * (l.retro < 0.0f ? 1.0f : principled_diffuse(l.retro, wi)));
                 return bump_ ? f * bump_shadowing(wi) : f;
             }
+            case LobeKind::Translucent: {
+                if (reflect_side) return Vec3f(0.0f);
+                pdf = -wi.z * kInvPi;
+                return l.weight * pdf;
+            }
+            case LobeKind::Transparent: return Vec3f(0.0f);  // delta: never evaluated
             case LobeKind::Reflection: {
                 if (!reflect_side) return Vec3f(0.0f);
                 const Vec3f m = normalize(wo_ + wi);

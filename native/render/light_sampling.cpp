@@ -485,14 +485,14 @@ float LightSet::triangle_pdf(uint32_t tri, const Vec3f& o, const Vec3f& p_light,
     return tri_unit_pick_ * tri_pick_[tri] / area * d2 / cos_l;
 }
 
-Vec3f LightSet::hit_lights(const Vec3f& o, const Vec3f& d, float tmax, float bsdf_pdf) const {
+Vec3f LightSet::hit_lights(const Vec3f& o, const Vec3f& d, float tmax, float bsdf_pdf, float tmin) const {
     Vec3f sum(0.0f);
     for (const LightRecord& l : lights_) {
         if (l.type == LightType::Area) {
             const float denom = dot(d, l.direction);
             if (!(denom < 0.0f)) continue;  // only the front side emits
             const float t = dot(l.position - o, l.direction) / denom;
-            if (!(t > 0.0f) || !(t < tmax)) continue;
+            if (!(t > tmin) || !(t < tmax)) continue;
             const Vec3f q = o + d * t - l.position;
             const float x = dot(q, l.axis_u) / l.half_u, y = dot(q, l.axis_v) / l.half_v;
             const bool round = l.shape == AreaShape::Disk || l.shape == AreaShape::Ellipse;
@@ -515,7 +515,8 @@ Vec3f LightSet::hit_lights(const Vec3f& o, const Vec3f& d, float tmax, float bsd
             if (!(cos_c > 0.0f)) continue;
             const float omc = disc_one_minus_cos(l.radius, dist);
             if (one_minus_cos_between(d, w_c) > omc) continue;
-            if (!(dist / cos_c < tmax)) continue;  // the disc faces o at distance `dist`
+            const float t_disc = dist / cos_c;  // the disc faces o at distance `dist`
+            if (!(t_disc < tmax) || !(t_disc > tmin)) continue;
             const float light_pdf = l.pick / (2.0f * kPi * omc);
             const float w = bsdf_pdf > 0.0f ? power_heuristic(bsdf_pdf, light_pdf) : 1.0f;
             sum += l.radiance * (spot_attenuation(l, -d) * w);

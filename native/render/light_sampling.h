@@ -93,7 +93,9 @@ public:
     // Emission picked up by a bounce ray o + t d (unit d), t < tmax, from
     // analytic lights (area, and point/spot with radius): returns the sum of
     // MIS-weighted radiance given the BSDF pdf of d (bsdf_pdf = 0: delta, no MIS).
-    Vec3f hit_lights(const Vec3f& o, const Vec3f& d, float tmax, float bsdf_pdf) const;
+    // tmin: a ray continued past transparent surfaces (render/transparency.h)
+    // met the lights before tmin on its earlier stretch.
+    Vec3f hit_lights(const Vec3f& o, const Vec3f& d, float tmax, float bsdf_pdf, float tmin = 0.0f) const;
     // Radiance from an escaped bounce ray: world and suns with an angle, MIS-weighted.
     // n/transmissive: the frame of the vertex that sampled d (for the world pdf).
     Vec3f escaped(const Vec3f& d, const Vec3f& n, bool transmissive, float bsdf_pdf) const;

@@ -48,6 +48,7 @@
 #include "shading_normal.h"
 #include "settings.h"
 #include "stats.h"
+#include "transparency.h"
 
 namespace coherent {
 
@@ -100,6 +101,7 @@ struct PathState {
 
     Vec3f throughput{1.0f};
     int bounce = 0, diffuse_bounce = 0, glossy_bounce = 0, transmission_bounce = 0;
+    int transparent_bounce = 0;  // pass-throughs (transparency.h); not bounces, but they draw numbers
     float prev_pdf = 0.0f;  // BSDF pdf of the current ray's direction; 0 = camera or delta
     Vec3f prev_n{0.0f, 0.0f, 1.0f};
     bool prev_transmissive = false;
@@ -115,6 +117,10 @@ struct PathState {
 
     PathOutput out;
 };
+
+// The block of sampler dimensions (PathDims::bounce) the path's current
+// vertex reads: pass-throughs draw numbers too, so each surface met has its own.
+COHERENT_ALWAYS_INLINE int vertex_index(const PathState& s) { return s.bounce + s.transparent_bounce; }
 
 // Motion blur, for drivers: merge the moving triangles' closest hit of s.ray
 // into the static BVH's (found, hit); returns whether anything is hit.
@@ -215,6 +221,7 @@ struct SurfacePoint {
     Vec3f n;           // shading normal on that side
     Vec3f wo;          // towards where the ray came from
     bool front;        // the ray hit the side ng points to
+    float t;           // the hit's ray parameter (a pass-through continues past it)
 };
 
 // The side the ray came from, and the shading normal there (`interp`, the
@@ -236,21 +243,25 @@ COHERENT_ALWAYS_INLINE void orient(SurfacePoint& sp, const Ray& ray, bool has_no
 }
 
 // A hit on an instance: the prototype's triangle carried to the world.
-COHERENT_ALWAYS_INLINE SurfacePoint instance_surface_point(const Scene& scene, const PathState& s, const Hit& hit) {
-    const InstancedPoint ip = instanced_point(scene, hit, s.time);
+COHERENT_ALWAYS_INLINE SurfacePoint instance_surface_point(const Scene& scene, const Ray& ray, float time,
+                                                           const Hit& hit) {
+    const InstancedPoint ip = instanced_point(scene, hit, time);
     SurfacePoint sp;
     sp.tri = kInvalidPrim;
     sp.material = ip.material;
     sp.p = ip.p;
     sp.p_error = ip.p_error;
     sp.ng = ip.ng;
-    orient(sp, s.ray, ip.has_normal, ip.ns);
+    sp.t = hit.t;
+    orient(sp, ray, ip.has_normal, ip.ns);
     return sp;
 }
 
-COHERENT_ALWAYS_INLINE SurfacePoint surface_point(const Scene& scene, const PathState& s, const Hit& hit) {
-    if (hit.instance != kInvalidPrim) return instance_surface_point(scene, s, hit);
+// The point where `ray`, at shutter time `time`, met hit.
+COHERENT_ALWAYS_INLINE SurfacePoint surface_point(const Scene& scene, const Ray& ray, float time, const Hit& hit) {
+    if (hit.instance != kInvalidPrim) return instance_surface_point(scene, ray, time, hit);
     SurfacePoint sp;
+    sp.t = hit.t;
     sp.tri = hit.prim;
     sp.material = scene.material_of[hit.prim];
     const uint32_t tri = hit.prim;
@@ -264,8 +275,8 @@ COHERENT_ALWAYS_INLINE SurfacePoint surface_point(const Scene& scene, const Path
         const Vec3f* vc = &scene.motion_vertices[3 * size_t(tri)];
         const Vec3f* nc = &scene.motion_normals[3 * size_t(tri)];
         for (int k = 0; k < 3; ++k) {
-            moved[k] = motion_vertex(v[k], vc[k], s.time);
-            moved_n[k] = motion_vertex(sn[k], nc[k], s.time);
+            moved[k] = motion_vertex(v[k], vc[k], time);
+            moved_n[k] = motion_vertex(sn[k], nc[k], time);
         }
         v = moved;
         sn = moved_n;
@@ -276,8 +287,11 @@ COHERENT_ALWAYS_INLINE SurfacePoint surface_point(const Scene& scene, const Path
     sp.p = triangle_point(v[0], v[1], v[2], hit.u, hit.v, sp.p_error);
     const bool has_normals = scene.has_normals[tri] != 0;
     const Vec3f interp = has_normals ? sn[0] * (1.0f - hit.u - hit.v) + sn[1] * hit.u + sn[2] * hit.v : Vec3f(0.0f);
-    orient(sp, s.ray, has_normals, interp);
+    orient(sp, ray, has_normals, interp);
     return sp;
+}
+COHERENT_ALWAYS_INLINE SurfacePoint surface_point(const Scene& scene, const PathState& s, const Hit& hit) {
+    return surface_point(scene, s.ray, s.time, hit);
 }
 
 // Cycles' path flags and bounce counters at a hit of s.ray (the Light Path
@@ -352,7 +366,8 @@ COHERENT_ALWAYS_INLINE const Material& material_at(const PathContext& ctx, const
 COHERENT_ALWAYS_INLINE void add_lights_passed(const PathContext& ctx, PathState& s, bool found, const Hit& hit) {
     if (s.bounce > 0)
         s.out.radiance += clamp_contribution(
-            s.throughput * ctx.lights->hit_lights(s.ray.o, s.ray.d, found ? hit.t : s.ray.tmax, s.prev_pdf),
+            s.throughput * ctx.lights->hit_lights(s.ray.o, s.ray.d, found ? hit.t : s.ray.tmax, s.prev_pdf,
+                                                  s.transparent_bounce > 0 ? s.ray.tmin : 0.0f),
             s.bounce - 1, *ctx.settings);
 }
 
@@ -369,9 +384,10 @@ COHERENT_ALWAYS_INLINE void shade_miss(const PathContext& ctx, PathState& s) {
             if (rs.transparent_film) s.out.alpha = 0.0f;
             else s.out.radiance += Vec3f(1.0f);
         } else if (rs.transparent_film) {
-            s.out.alpha = 0.0f;
+            s.out.alpha -= average(s.throughput);  // 1 - 1 = 0 straight from the camera
         } else {
-            s.out.radiance += clamp_contribution(ctx.lights->world_radiance(s.ray.d), -1, rs);
+            // Throughput 1 (exactly) unless transparent surfaces were passed.
+            s.out.radiance += clamp_contribution(s.throughput * ctx.lights->world_radiance(s.ray.d), -1, rs);
         }
     } else if constexpr (kLights) {
         s.out.radiance += clamp_contribution(
@@ -423,15 +439,57 @@ COHERENT_ALWAYS_INLINE Ray shadow_ray(const SurfacePoint& sp, const LightSample&
     return shadow;
 }
 
+// A shadow ray's closest hit beyond r.tmin in every part of the scene.
+COHERENT_ALWAYS_INLINE bool closest_hit(const PathContext& ctx, const PathState& s, const Ray& r, Hit& hit) {
+    bool found = merge_instance_hit(ctx, s, r, ctx.bvh->intersect(r, hit), hit);
+    if (ctx.motion) found = ctx.motion->intersect(r, s.time, hit) || found;
+    return found;
+}
+
+// The transparent colour of the surface r met at `hit` (black: opaque).
+COHERENT_ALWAYS_INLINE Vec3f transparency_at(const Scene& scene, const PathState& s, const Ray& r, const Hit& hit) {
+    SurfacePoint sp = surface_point(scene, r, s.time, hit);
+    if (!scene.materials[sp.material].has_closure(ClosureKind::Transparent)) return Vec3f(0.0f);
+    std::optional<Material> scratch;
+    return material_transparency(material_at(scene, hit, sp, scratch));
+}
+
+// Scenes with transparent surfaces: the queued shadow ray resolved here, in
+// the state machine, so that every driver gets the same answer (transparency.h).
+// An unoccluded ray adds its contribution; an occluded one is walked hit by
+// hit through transparent surfaces. The driver then has nothing to trace.
+// Kept out of line: opaque scenes never call it, and shade_hit stays small.
+[[gnu::noinline]] inline void trace_transparent_shadow(const PathContext& ctx, PathState& s) {
+    s.has_shadow = false;
+    const Ray& r = s.shadow;
+    Vec3f t(1.0f);
+    if (ctx.bvh->occluded(r) || motion_occluded(ctx, s, r) || instance_occluded(ctx, s, r)) {
+        Hit hit;
+        const int max_hits = std::max(ctx.settings->transparent_max_bounces - s.transparent_bounce, 0);
+        t = shadow_transmittance(
+            r, max_hits,
+            [&](const Ray& ray, float& t_hit) {
+                hit = Hit{};
+                if (!closest_hit(ctx, s, ray, hit)) return false;
+                t_hit = hit.t;
+                return true;
+            },
+            [&](const Ray& ray) { return transparency_at(*ctx.scene, s, ray, hit); });
+        if (is_black(t)) return;
+    }
+    s.out.radiance += s.shadow_contribution * t;
+}
+
 // Next-event estimation: samples a light and queues the shadow ray with the
 // contribution it adds if unoccluded.
 COHERENT_ALWAYS_INLINE void queue_shadow_ray(const PathContext& ctx, const PathSampler& ps, PathState& s,
                              const Bsdf& bsdf, const SurfacePoint& sp) {
     using D = PathDims;
     LightSample ls;
+    const int v = vertex_index(s);
     if (!bsdf.has_non_delta() ||
-        !ctx.lights->sample(sp.p, sp.n, bsdf.transmissive(), ps.get(D::bounce(s.bounce, D::kLightPick)),
-                            ps.get(D::bounce(s.bounce, D::kLightU)), ps.get(D::bounce(s.bounce, D::kLightV)), ls))
+        !ctx.lights->sample(sp.p, sp.n, bsdf.transmissive(), ps.get(D::bounce(v, D::kLightPick)),
+                            ps.get(D::bounce(v, D::kLightU)), ps.get(D::bounce(v, D::kLightV)), ls))
         return;
     float bsdf_pdf = 0.0f;
     const Vec3f f = bsdf.eval(ls.wi, bsdf_pdf);
@@ -440,6 +498,7 @@ COHERENT_ALWAYS_INLINE void queue_shadow_ray(const PathContext& ctx, const PathS
     const float w = ls.delta ? 1.0f : power_heuristic(ls.pdf, bsdf_pdf);
     s.shadow_contribution = clamp_contribution(s.throughput * f * ls.li * (w / ls.pdf), s.bounce, *ctx.settings);
     s.has_shadow = true;
+    if (ctx.scene->features.transparent) trace_transparent_shadow(ctx, s);
 }
 
 // Russian roulette on the path throughput (Cycles: sqrt of the max
@@ -449,7 +508,7 @@ COHERENT_ALWAYS_INLINE bool survive_roulette(const PathContext& ctx, const PathS
     using D = PathDims;
     if (s.bounce < ctx.settings->rr_min_bounces) return true;
     const float q = std::min(1.0f, std::sqrt(max_component(s.throughput)));
-    if (!(ps.get(D::bounce(s.bounce, D::kRoulette)) < q)) return false;
+    if (!(ps.get(D::bounce(vertex_index(s), D::kRoulette)) < q)) return false;
     s.throughput = s.throughput / q;
     return true;
 }
@@ -468,6 +527,36 @@ COHERENT_ALWAYS_INLINE void count_bounce(const RenderSettings& rs, PathState& s,
         s.last_ray = true;
 }
 
+// A pass-through (transparency.h): the same ray goes on past the surface at
+// parameter t, weighted; no bounce is counted, the ray keeps its type and
+// MIS state. Beyond transparent_max_bounces the next ray is the last.
+COHERENT_ALWAYS_INLINE void continue_through(const RenderSettings& rs, PathState& s, float t, const Vec3f& weight) {
+    s.throughput *= weight;
+    if (is_black(s.throughput) || !is_finite(s.throughput)) return;
+    ++s.transparent_bounce;
+    if (s.transparent_bounce >= rs.transparent_max_bounces) s.last_ray = true;
+    s.ray.tmin = t;
+    s.alive = true;
+}
+
+// A last ray (a bounce limit was reached) that meets a transparent surface
+// still passes through it to the emission behind, as Cycles' paths do
+// (only the surface's transparent closures scatter then).
+COHERENT_ALWAYS_INLINE void last_ray_through(const RenderSettings& rs, PathState& s, const Material& mat, float t) {
+    if (s.transparent_bounce >= rs.transparent_max_bounces) return;
+    const Vec3f transparency = material_transparency(mat);
+    if (!is_black(transparency)) continue_through(rs, s, t, transparency);
+}
+
+// Holdout (transparency.h): on the camera's path, takes the holdout weight
+// off the pixel's alpha; returns whether the path ends (a full holdout).
+COHERENT_ALWAYS_INLINE bool apply_holdout(PathState& s, const Material& mat) {
+    const float h = material_holdout(mat);
+    if (!(h > 0.0f) || s.bounce != 0) return false;
+    s.out.alpha -= h * average(s.throughput);
+    return h >= 1.0f;
+}
+
 // Samples the BSDF and sets up the next extension ray (s.alive), unless the
 // sample fails or carries no throughput.
 template <bool kGlass>
@@ -475,9 +564,11 @@ COHERENT_ALWAYS_INLINE void sample_next_ray(const PathContext& ctx, const PathSa
                             const Bsdf& bsdf, const SurfacePoint& sp) {
     using D = PathDims;
     BsdfSample bs;
-    if (!bsdf.sample(ps.get(D::bounce(s.bounce, D::kBsdfLobe)), ps.get(D::bounce(s.bounce, D::kBsdfU)),
-                     ps.get(D::bounce(s.bounce, D::kBsdfV)), bs))
+    const int v = vertex_index(s);
+    if (!bsdf.sample(ps.get(D::bounce(v, D::kBsdfLobe)), ps.get(D::bounce(v, D::kBsdfU)),
+                     ps.get(D::bounce(v, D::kBsdfV)), bs))
         return;
+    if (bs.transparent) return continue_through(*ctx.settings, s, sp.t, bs.weight);
     if constexpr (!kGlass) {
         if (bs.type == RayType::Refraction) return;  // unreachable: no glass lobes exist
     }
@@ -516,7 +607,7 @@ inline void shade_hit(const PathContext& ctx, const PathSampler& ps, PathState& 
         return;
     }
     SurfacePoint sp = surface_point(scene, s, hit);
-    if (s.bounce == 0) {
+    if (s.bounce == 0 && s.transparent_bounce == 0) {
         s.out.depth = dot(sp.p - scene.camera.position, scene.camera.forward);
         s.out.normal = sp.n;
     }
@@ -533,8 +624,12 @@ inline void shade_hit(const PathContext& ctx, const PathSampler& ps, PathState& 
         record_surface_features(mat, sp.n, dot(sp.n, sp.wo), scene.camera, s.features, s.out.albedo,
                                 s.out.denoising_normal);
     }
+    if (scene.features.holdout && apply_holdout(s, mat)) return;
     if (mat.is_emissive()) add_emission<kLights>(ctx, s, mat, sp);
-    if (s.last_ray) return;
+    if (s.last_ray) {
+        if (scene.features.transparent) last_ray_through(*ctx.settings, s, mat, sp.t);
+        return;
+    }
 
     const bool perturbed = sp.n.x != interpolated_n.x || sp.n.y != interpolated_n.y || sp.n.z != interpolated_n.z;
     const Bsdf bsdf(mat, sp.n, sp.ng_f, sp.wo, sp.front, kGlass, perturbed ? &interpolated_n : nullptr);

@@ -167,6 +167,9 @@ std::vector<SettingSpec> light_path_rows() {
                         "maximum number of glossy reflection bounces"));
     t.push_back(integer("transmission_bounces", "Transmission", "Light Paths", &RenderSettings::transmission_bounces,
                         0, 1024, 0, "maximum number of transmission (refraction) bounces"));
+    t.push_back(integer("transparent_max_bounces", "Transparent", "Light Paths",
+                        &RenderSettings::transparent_max_bounces, 0, 1024, 0,
+                        "maximum number of transparent surfaces a path or shadow ray passes through"));
     t.push_back(integer("rr_min_bounces", "Russian Roulette After", "Light Paths", &RenderSettings::rr_min_bounces,
                         0, 1024, 0, "bounces before Russian roulette may end a path"));
     t.push_back(real("clamp_direct", "Clamp Direct", "Light Paths", &RenderSettings::clamp_direct, 0.0, 1e6, 100.0,

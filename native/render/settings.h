@@ -52,6 +52,7 @@ struct RenderSettings {
     int diffuse_bounces = 4;
     int glossy_bounces = 4;
     int transmission_bounces = 12;
+    int transparent_max_bounces = 8;   // Transparent BSDF pass-throughs, camera and shadow rays alike (Cycles)
     int rr_min_bounces = 3;             // Russian roulette starts after this many bounces
     // Blender's Light Paths > Clamping (0 = off). Each light contribution is
     // scaled so its largest component is at most the limit; "direct" means

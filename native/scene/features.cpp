@@ -25,6 +25,8 @@ std::vector<std::string> SceneFeatures::names() const {
     add(depth_of_field, "depth_of_field");
     add(world_light, "world_light");
     add(motion_blur, "motion_blur");
+    add(transparent, "transparent");
+    add(holdout, "holdout");
     return n;
 }
 
@@ -34,6 +36,7 @@ SceneFeatures SceneFeatures::all() {
     f.diffuse = f.glossy = f.specular = f.glass = true;
     f.depth_of_field = f.world_light = f.motion_blur = true;
     f.hittable_emitters = true;
+    f.transparent = f.holdout = true;
     return f;
 }
 
@@ -51,6 +54,9 @@ SceneFeatures compute_features(const Scene& scene) {
         if (!used[i]) continue;
         const Material& mat = scene.materials[i];
         if (mat.is_emissive()) f.emissive_meshes = true;
+        if (mat.has_closure(ClosureKind::Transparent)) f.transparent = true;
+        if (mat.has_closure(ClosureKind::Holdout)) f.holdout = true;
+        if (mat.has_closure(ClosureKind::Translucent)) f.diffuse = true;
         // A shader program may turn any lobe on at some points.
         if (mat.program) {
             f.diffuse = f.glossy = f.specular = true;

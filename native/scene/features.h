@@ -26,6 +26,11 @@ struct SceneFeatures {
     // spot light with a radius, sun with an angle, world). Without one, a
     // path's last ray (traced only to collect emission) would find nothing.
     bool hittable_emitters = false;
+    // Some used material has a Transparent closure (alpha): paths may pass
+    // through surfaces and shadow rays look for transparent occluders
+    // (render/transparency.h). Holdout: some material cuts the pixel alpha.
+    bool transparent = false;
+    bool holdout = false;
 
     bool any_light() const {
         return emissive_meshes || point_lights || spot_lights || sun_lights || area_lights || world_light;

@@ -2,7 +2,8 @@
 //
 // One closure type covers every BSDF the front ends produce (Principled,
 // Diffuse, Glossy, Glass, Emission, Mix and Add nodes are all expressed as
-// closure parameters and weights), so the integrator has a single, small
+// closure parameters and weights; Transparent, Translucent and Holdout as
+// closures of their ClosureKind), so the integrator has a single, small
 // shading path and SceneFeatures can tell from the parameters which lobes exist.
 #pragma once
 
@@ -17,6 +18,16 @@
 namespace coherent {
 
 struct ShaderProgram;  // shader/program.h
+
+// What a closure is. Principled covers every BSDF with lobes on wo's side or
+// refracting (Principled, Diffuse, Glossy, Glass); the others are Cycles'
+// closures that use only `base_color` (transparent/translucent colour):
+//  Transparent: light passes straight through, weighted by the colour; it is
+//    a pass-through, not a bounce (render/transparency.h), and lets shadow
+//    rays through too (Cycles' transparent shadows).
+//  Translucent: Lambertian transmission (the cosine lobe on the far side).
+//  Holdout: no light; at the camera's surface its weight cuts the pixel's alpha.
+enum class ClosureKind : uint8_t { Principled, Transparent, Translucent, Holdout };
 
 // Blender's Principled BSDF restricted to constant inputs.
 // Lobes: Lambert diffuse, GGX dielectric specular (F0 from `specular`),
@@ -34,6 +45,7 @@ struct Closure {
     // Lambert. Without this the default rough-1 glTF Cornell box renders ~10 %
     // darker than Cycles.
     bool principled_diffuse = false;
+    ClosureKind kind = ClosureKind::Principled;
 };
 
 // Roughness at or below which a GGX lobe is a perfect mirror / smooth glass
@@ -49,6 +61,7 @@ struct ClosureLobes {
     float transmission = 0.0f;  // weight of the GGX glass lobe
 };
 inline ClosureLobes closure_lobes(const Closure& c) {
+    if (c.kind != ClosureKind::Principled) return {};
     const float metallic = std::clamp(c.metallic, 0.0f, 1.0f);
     const float transmission = std::clamp(c.transmission, 0.0f, 1.0f) * (1.0f - metallic);
     ClosureLobes l;
@@ -66,13 +79,19 @@ struct Material {
     std::array<float, 4> weights{1.0f, 0.0f, 0.0f, 0.0f};
     int closure_count = 1;
     Vec3f emission{0.0f, 0.0f, 0.0f};  // emitted radiance (colour x strength), W/(sr m^2) as in Cycles
-    // Blender's alpha is not supported yet; every surface is opaque.
+    // Alpha (Principled Alpha, glTF alphaMode) is a Transparent closure mixed in.
     // Node graphs with non-constant inputs: a program whose outputs override
     // the constants above per shading point (shader/eval.h). Null for
     // constant materials, which then cost exactly what they did before.
     std::shared_ptr<const ShaderProgram> program;
 
     bool is_emissive() const { return emission.x > 0.0f || emission.y > 0.0f || emission.z > 0.0f; }
+    // Whether some closure of this kind is present (its weight may be program-driven).
+    bool has_closure(ClosureKind k) const {
+        for (int c = 0; c < closure_count && c < 4; ++c)
+            if (closures[size_t(c)].kind == k) return true;
+        return false;
+    }
 };
 
 }  // namespace coherent

@@ -206,7 +206,7 @@ TEST(SceneFeatures, LobesLightsWorldAndDepthOfField) {
     EXPECT_TRUE(s.features.depth_of_field);
     const auto names = s.features.names();
     EXPECT_NE(std::find(names.begin(), names.end(), "depth_of_field"), names.end());
-    EXPECT_EQ(SceneFeatures::all().names().size(), 12u);
+    EXPECT_EQ(SceneFeatures::all().names().size(), 14u);  // transparent and holdout included
     EXPECT_FALSE(s.features.motion_blur);  // nothing moves
 }
 
