@@ -34,10 +34,12 @@ constexpr PassType kPassTypes[] = {PassType::Combined,        PassType::Depth,  
 PassType pass_from_name(const std::string& name) {
     for (PassType t : kPassTypes)
         if (name == pass_info(t).name) return t;
+    for (int i = 0; i < kRenderPassCount; ++i)
+        if (name == render_pass_info(RenderPass(i)).name) return pass_type(RenderPass(i));
     if (name == "Z") return PassType::Depth;  // Blender < 2.92 name of the depth pass
     throw py::value_error("pass_pixels: unknown pass '" + name +
                           "' (expected 'Combined', 'Depth', 'Normal', 'Error', 'BVH Visits', 'SIMD Utilisation', "
-                          "'Denoising Albedo', 'Denoising Normal' or 'Noisy Image')");
+                          "'Denoising Albedo', 'Denoising Normal', 'Noisy Image' or a Cycles pass such as 'DiffDir')");
 }
 
 // A ratio, or None when the denominator is 0 (nothing measured is not a measured 0).
@@ -415,7 +417,25 @@ private:
 std::unique_ptr<PyRenderer> make_renderer(std::shared_ptr<PyScene> scene, const py::object& settings,
                                           const py::kwargs& kwargs) {
     if (!scene) throw py::type_error("scene: expected a coherent Scene, got None");
-    return std::make_unique<PyRenderer>(std::move(scene), settings_from_python(settings, kwargs));
+    // passes=[names]: Cycles' render passes (film/passes.h), a set rather than a table row.
+    py::kwargs rest;
+    PassMask passes = 0;
+    for (const auto& item : kwargs) {
+        if (py::str(item.first).cast<std::string>() != "passes") {
+            rest[item.first] = item.second;
+            continue;
+        }
+        try {
+            passes = pass_mask_from_names(item.second.cast<std::vector<std::string>>());
+        } catch (const std::invalid_argument& e) {
+            throw py::value_error(std::string("passes: ") + e.what());
+        } catch (const py::cast_error&) {
+            throw py::type_error("passes: expected a list of pass names");
+        }
+    }
+    RenderSettings rs = settings_from_python(settings, rest);
+    rs.passes = passes;
+    return std::make_unique<PyRenderer>(std::move(scene), rs);
 }
 
 }  // namespace

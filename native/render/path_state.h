@@ -42,6 +42,7 @@
 #include "camera_rays.h"
 #include "instance_shading.h"
 #include "light_sampling.h"
+#include "pass_accumulation.h"
 #include "ray_offset.h"
 #include "render_modes.h"
 #include "settings.h"
@@ -63,6 +64,7 @@ struct PathOutput {
     // Denoising features (denoise/denoising_features.h); 0 unless requested.
     Vec3f albedo{0.0f};
     Vec3f denoising_normal{0.0f};
+    PassSample passes;  // Cycles' passes (film/passes.h); 0 unless enabled
 };
 
 struct PathContext {
@@ -110,6 +112,7 @@ struct PathState {
     // scene (every ray of a path, as in distribution ray tracing).
     float time = 0.0f;
     DenoisingFeatureState features;
+    PassState pass;
 
     PathOutput out;
 };
@@ -178,6 +181,7 @@ inline void start_path(const PathContext& ctx, const PathSampler& ps, int px, in
     s = PathState{};
     if (ctx.motion || (ctx.instances && ctx.instances->has_motion())) s.time = ps.get(D::kTime);
     s.features.pending = rs.denoising_features();
+    s.pass.mask = rs.passes;
     s.ray = generate_camera_ray<kDepthOfField>(ctx.scene->camera, fx, fy, rs.width, rs.height, lens_u, lens_v).ray;
     s.type = RayType::Camera;
 }
@@ -300,10 +304,13 @@ COHERENT_ALWAYS_INLINE const Material& material_at(const Scene& scene, const Hit
 // Analytic lights are invisible to camera rays (measured in Cycles) and
 // transparent: every one in front of the surface (or of nothing) adds its emission.
 COHERENT_ALWAYS_INLINE void add_lights_passed(const PathContext& ctx, PathState& s, bool found, const Hit& hit) {
-    if (s.bounce > 0)
-        s.out.radiance += clamp_contribution(
+    if (s.bounce > 0) {
+        const Vec3f c = clamp_contribution(
             s.throughput * ctx.lights->hit_lights(s.ray.o, s.ray.d, found ? hit.t : s.ray.tmax, s.prev_pdf),
             s.bounce - 1, *ctx.settings);
+        s.out.radiance += c;
+        if (s.pass.mask) passes::add_hit_light(s.pass, s.out.passes, c, s.bounce, false);
+    }
 }
 
 // s.ray left the scene.
@@ -323,9 +330,14 @@ COHERENT_ALWAYS_INLINE void shade_miss(const PathContext& ctx, PathState& s) {
         } else {
             s.out.radiance += clamp_contribution(ctx.lights->world_radiance(s.ray.d), -1, rs);
         }
+        // Env holds the world also under a transparent film, as in Cycles.
+        if (s.pass.mask && rs.integrator != Integrator::AmbientOcclusion)
+            s.out.passes.add(RenderPass::Environment, clamp_contribution(ctx.lights->world_radiance(s.ray.d), -1, rs));
     } else if constexpr (kLights) {
-        s.out.radiance += clamp_contribution(
+        const Vec3f c = clamp_contribution(
             s.throughput * ctx.lights->escaped(s.ray.d, s.prev_n, s.prev_transmissive, s.prev_pdf), s.bounce - 1, rs);
+        s.out.radiance += c;
+        if (s.pass.mask) passes::add_hit_light(s.pass, s.out.passes, c, s.bounce, true);
     }
 }
 
@@ -347,7 +359,9 @@ COHERENT_ALWAYS_INLINE void add_emission(const PathContext& ctx, PathState& s, c
     if constexpr (kLights) {
         if (s.prev_pdf > 0.0f) w = power_heuristic(s.prev_pdf, ctx.lights->triangle_pdf(sp.tri, s.ray.o, sp.p, sp.ng));
     }
-    s.out.radiance += clamp_contribution(s.throughput * mat.emission * w, s.bounce - 1, *ctx.settings);
+    const Vec3f c = clamp_contribution(s.throughput * mat.emission * w, s.bounce - 1, *ctx.settings);
+    s.out.radiance += c;
+    if (s.pass.mask) passes::add_hit_light(s.pass, s.out.passes, c, s.bounce, false);
 }
 
 // The shadow ray from sp towards light sample ls.
@@ -390,6 +404,7 @@ COHERENT_ALWAYS_INLINE void queue_shadow_ray(const PathContext& ctx, const PathS
     const float w = ls.delta ? 1.0f : power_heuristic(ls.pdf, bsdf_pdf);
     s.shadow_contribution = clamp_contribution(s.throughput * f * ls.li * (w / ls.pdf), s.bounce, *ctx.settings);
     s.has_shadow = true;
+    if (s.pass.mask) passes::queue_shadow(s.pass, bsdf, ls.wi, s.bounce);
 }
 
 // Russian roulette on the path throughput (Cycles: sqrt of the max
@@ -433,6 +448,7 @@ COHERENT_ALWAYS_INLINE void sample_next_ray(const PathContext& ctx, const PathSa
     }
     s.throughput *= bs.weight;
     if (is_black(s.throughput) || !is_finite(s.throughput)) return;
+    if (s.pass.mask && s.bounce == 0) passes::first_bounce(s.pass, bsdf, bs);
 
     count_bounce(*ctx.settings, s, bs);
     // A last ray is traced only for the emission it may hit.
@@ -446,6 +462,21 @@ COHERENT_ALWAYS_INLINE void sample_next_ray(const PathContext& ctx, const PathSa
     s.ray.tmax = kInf;
     s.type = bs.type;
     s.alive = true;
+}
+
+// Cycles' data and Col passes at the camera's first hit; the AO pass's own
+// ray is traced here, one at a time, whatever the driver.
+inline void record_first_hit_passes(const PathContext& ctx, const PathSampler& ps, PathState& s, const Hit& hit,
+                                    const SurfacePoint& sp, const Bsdf& bsdf) {
+    using D = PathDims;
+    const float ao_distance = ctx.scene->data_passes.ao_distance > 0.0f ? ctx.scene->data_passes.ao_distance
+                                                                         : ctx.ao_distance;
+    const passes::FirstHit h{ctx.scene, &hit, sp.material, sp.p, sp.p_error, sp.n, sp.ng_f, dot(sp.n, sp.wo)};
+    passes::record_first_hit(s.pass.mask, s.out.passes, h, bsdf, ps.get(D::bounce(0, D::kBsdfU)),
+                             ps.get(D::bounce(0, D::kBsdfV)), ao_distance, [&](const Ray& r) {
+                                 return ctx.bvh->occluded(r) || instance_occluded(ctx, s, r) ||
+                                        motion_occluded(ctx, s, r);
+                             });
 }
 
 }  // namespace shading
@@ -488,6 +519,7 @@ inline void shade_hit(const PathContext& ctx, const PathSampler& ps, PathState& 
 
     const bool perturbed = sp.n.x != interpolated_n.x || sp.n.y != interpolated_n.y || sp.n.z != interpolated_n.z;
     const Bsdf bsdf(mat, sp.n, sp.ng_f, sp.wo, sp.front, kGlass, perturbed ? &interpolated_n : nullptr);
+    if (s.pass.mask && s.bounce == 0) record_first_hit_passes(ctx, ps, s, hit, sp, bsdf);
     if (bsdf.empty()) return;
     if constexpr (kLights) queue_shadow_ray(ctx, ps, s, bsdf, sp);
     if (!survive_roulette(ctx, ps, s)) return;
@@ -511,6 +543,7 @@ COHERENT_ALWAYS_INLINE Ray occlusion_ray(const PathContext& ctx, const PathSampl
 COHERENT_ALWAYS_INLINE void resolve_occlusion(PathState& s, int unoccluded) {
     if (s.has_shadow) {
         if (unoccluded > 0) s.out.radiance += s.shadow_contribution;
+        if (unoccluded > 0 && s.pass.mask) passes::add_shadow(s.pass, s.out.passes, s.shadow_contribution);
         s.has_shadow = false;
         return;
     }

@@ -114,6 +114,11 @@ struct RenderSettings {
     bool denoising_data = false;
     bool denoising_features() const { return denoise || denoising_data; }
 
+    // Cycles' render passes to accumulate (film/passes.h PassMask; 0 = none,
+    // which costs nothing). Not a table row: a set of names, given as
+    // Renderer(passes=[...]) in Python and --passes in the CLI.
+    uint32_t passes = 0;
+
     bool transparent_film = false;      // Film > Transparent: world seen directly gives alpha 0
     bool force_all_features = false;    // ignore SceneFeatures specialisation (benchmarks)
     int tile_size = 32;
