@@ -43,6 +43,61 @@ _PASSES = {
     "Noisy Image": ("RGBA", "COLOR"),
 }
 
+# Cycles' passes: (ViewLayer property, pass name, channel ids, pass type), in
+# the order Cycles registers them. Ticked ones are accumulated natively
+# (Renderer(passes=...)); the others cost nothing.
+VIEW_LAYER_PASSES = (
+    ("use_pass_mist", "Mist", "Z", "VALUE"),
+    ("use_pass_position", "Position", "XYZ", "VECTOR"),
+    ("use_pass_object_index", "IndexOB", "X", "VALUE"),
+    ("use_pass_material_index", "IndexMA", "X", "VALUE"),
+    ("use_pass_diffuse_direct", "DiffDir", "RGB", "COLOR"),
+    ("use_pass_diffuse_indirect", "DiffInd", "RGB", "COLOR"),
+    ("use_pass_diffuse_color", "DiffCol", "RGB", "COLOR"),
+    ("use_pass_glossy_direct", "GlossDir", "RGB", "COLOR"),
+    ("use_pass_glossy_indirect", "GlossInd", "RGB", "COLOR"),
+    ("use_pass_glossy_color", "GlossCol", "RGB", "COLOR"),
+    ("use_pass_transmission_direct", "TransDir", "RGB", "COLOR"),
+    ("use_pass_transmission_indirect", "TransInd", "RGB", "COLOR"),
+    ("use_pass_transmission_color", "TransCol", "RGB", "COLOR"),
+    ("use_pass_emit", "Emit", "RGB", "COLOR"),
+    ("use_pass_environment", "Env", "RGB", "COLOR"),
+    ("use_pass_ambient_occlusion", "AO", "RGB", "COLOR"),
+)
+_PASSES.update({name: (chan_id, kind) for _, name, chan_id, kind in VIEW_LAYER_PASSES})
+
+# Blender's World > Mist falloff as Cycles' exponent.
+_MIST_FALLOFF = {"QUADRATIC": 2.0, "LINEAR": 1.0, "INVERSE_QUADRATIC": 0.5}
+
+
+def enabled_passes(view_layer):
+    """Names of the Cycles passes ticked in `view_layer`."""
+    return [name for prop, name, _, _ in VIEW_LAYER_PASSES if getattr(view_layer, prop, False)]
+
+
+def set_data_pass_inputs(nscene, bscene):
+    """What the data passes read: pass_index of objects (by exported name;
+    an instance "parent/object" takes its object's) and materials (by name),
+    and the World's mist and AO distance. Per object and material, never per
+    vertex."""
+    objects = bpy.data.objects
+    object_index = {}
+    for name in nscene.object_names:
+        ob = objects.get(name) or objects.get(name.rsplit("/", 1)[-1])
+        if ob is not None and ob.pass_index:
+            object_index[name] = float(ob.pass_index)
+    material_index = []
+    for i in range(nscene.material_count):
+        mat = bpy.data.materials.get(nscene.material(i)["name"]) if i else None
+        material_index.append(float(mat.pass_index) if mat is not None else 0.0)
+    world = bscene.world
+    kwargs = {}
+    if world is not None:
+        mist = world.mist_settings
+        kwargs = dict(mist_start=mist.start, mist_depth=mist.depth,
+                      mist_falloff=_MIST_FALLOFF.get(mist.falloff, 2.0), ao_distance=world.light_settings.distance)
+    nscene.set_data_passes(object_pass_index=object_index, material_pass_index=material_index, **kwargs)
+
 # Integrator and traversal as the Info report names them.
 _INTEGRATOR_NAMES = {"pt": "path tracing", "drt": "distribution ray tracing", "wrt": "Whitted ray tracing",
                      "rcs": "ray casting", "ao": "ambient occlusion"}
@@ -255,6 +310,9 @@ class CoherentRenderEngine(bpy.types.RenderEngine):
             self.register_pass(scene, renderlayer, "Denoising Normal", 3, "XYZ", "VECTOR")
         if scene is not None and scene.coherent.use_denoising:
             self.register_pass(scene, renderlayer, "Noisy Image", 4, "RGBA", "COLOR")
+        for prop, name, chan_id, kind in VIEW_LAYER_PASSES:
+            if getattr(renderlayer, prop, False):
+                self.register_pass(scene, renderlayer, name, len(chan_id), chan_id, kind)
 
     # -- final render -------------------------------------------------------------
 
@@ -315,12 +373,15 @@ class CoherentRenderEngine(bpy.types.RenderEngine):
             print(f"Coherent: {nscene.instance_count:,} instances of {nscene.prototype_count} shared meshes "
                   f"({nscene.instanced_triangle_count:,} triangles as instanced) beside "
                   f"{nscene.triangle_count:,} world-space triangles")
+        passes = enabled_passes(depsgraph.view_layer)
+        if passes:
+            set_data_pass_inputs(nscene, scene)
         build_start = time.perf_counter()
         renderer = native.Renderer(
             nscene, width=width, height=height, spp=props.samples,
             seed=props.seed_for_frame(scene.frame_current), border=border,
             progressive_display=False, target_error=props.target_error, time_limit=props.time_limit,
-            denoise=props.use_denoising, **props.renderer_kwargs(scene))
+            denoise=props.use_denoising, passes=passes, **props.renderer_kwargs(scene))
         build_seconds = time.perf_counter() - build_start
         self._renderer = renderer
         reuse = self._persistent.report if self._persistent is not None else None
