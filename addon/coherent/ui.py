@@ -346,6 +346,18 @@ class VIEWLAYER_PT_coherent_passes_light(CoherentButtonsPanel, bpy.types.Panel):
         col.prop(view_layer, "use_pass_ambient_occlusion", text="Ambient Occlusion")
 
 
+def _cryptomatte_panel():
+    """Blender's own Cryptomatte panel (as Cycles shows it) under our Passes."""
+    from bl_ui.properties_view_layer import ViewLayerCryptomattePanel
+
+    class VIEWLAYER_PT_coherent_passes_crypto(CoherentButtonsPanel, ViewLayerCryptomattePanel, bpy.types.Panel):
+        bl_label = "Cryptomatte"
+        bl_context = "view_layer"
+        bl_parent_id = "VIEWLAYER_PT_coherent_passes"
+
+    return VIEWLAYER_PT_coherent_passes_crypto
+
+
 classes = (
     RENDER_PT_coherent_sampling,
     RENDER_PT_coherent_adaptive,
@@ -359,6 +371,7 @@ classes = (
     VIEWLAYER_PT_coherent_passes,
     VIEWLAYER_PT_coherent_passes_data,
     VIEWLAYER_PT_coherent_passes_light,
+    _cryptomatte_panel(),
 )
 
 

@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <utility>
 
 namespace coherent {
 
@@ -57,7 +58,41 @@ void Film::clear() {
     const PassMask passes = passes_;
     passes_ = 0;
     enable_passes(passes);
+    const uint32_t crypto = crypto_types_;
+    crypto_types_ = 0;
+    enable_cryptomatte(crypto, crypto_slots_);
 }
+
+void Film::enable_cryptomatte(uint32_t types, int levels) {
+    crypto_types_ = types;
+    crypto_slots_ = types ? 2 * ((std::clamp(levels, 1, 16) + 1) / 2) : 0;
+    const size_t n = size_t(width_) * size_t(height_);
+    for (int t = 0; t < kCryptoTypeCount; ++t) {
+        if (types & (1u << t)) crypto_[t].assign(n * size_t(crypto_slots_) * 2, 0.0f);
+        else crypto_[t].clear();
+    }
+}
+
+void Film::resolve_cryptomatte(CryptoType t, int layer, float* out) const {
+    const size_t n = size_t(width_) * size_t(height_);
+    const std::vector<float>& b = crypto_[int(t)];
+    std::vector<std::pair<float, float>> ranked(static_cast<size_t>(crypto_slots_));
+    for (size_t i = 0; i < n; ++i) {
+        float* o = out + 4 * i;
+        std::fill(o, o + 4, 0.0f);
+        if (b.empty() || count_[i] == 0 || 2 * layer + 1 >= crypto_slots_) continue;
+        const float* slots = &b[i * size_t(crypto_slots_) * 2];
+        for (int k = 0; k < crypto_slots_; ++k) ranked[size_t(k)] = {slots[2 * k], slots[2 * k + 1]};
+        // By coverage, highest first (Cycles' film_cryptomatte_post); ties keep slot order.
+        std::stable_sort(ranked.begin(), ranked.end(), [](const auto& a, const auto& c) { return a.second > c.second; });
+        const float inv = 1.0f / float(count_[i]);
+        for (int r = 0; r < 2; ++r) {
+            o[2 * r] = ranked[size_t(2 * layer + r)].first;
+            o[2 * r + 1] = ranked[size_t(2 * layer + r)].second * inv;
+        }
+    }
+}
+
 
 void Film::enable_passes(PassMask mask) {
     // Cycles divides Dir and Ind by Col: a lobe's Col is kept whenever one of them is.
@@ -66,6 +101,7 @@ void Film::enable_passes(PassMask mask) {
     for (int first : kLobes)
         if (mask & ((PassMask(1) << first) | (PassMask(1) << (first + 1)))) mask |= PassMask(1) << (first + 2);
     const size_t n = size_t(width_) * size_t(height_);
+    mask &= (PassMask(1) << kRenderPassCount) - 1;  // pass bits only
     for (int p = 0; p < kRenderPassCount; ++p)
         if ((mask & pass_bit(RenderPass(p))) && !(passes_ & pass_bit(RenderPass(p))))
             pass_sums_[p].assign(n * size_t(render_pass_info(RenderPass(p)).channels), 0.0f);
@@ -86,6 +122,19 @@ void Film::add_passes(int x, int y, const PassSample& values, uint32_t sample) {
             continue;
         }
         for (int c = 0; c < info.channels; ++c) d[c] += v[c];
+    }
+    for (int t = 0; t < kCryptoTypeCount; ++t) {
+        const float id = values.crypto_id[t];
+        if (!(crypto_types_ & (1u << t)) || id == 0.0f) continue;
+        float* slots = &crypto_[t][i * size_t(crypto_slots_) * 2];
+        for (int k = 0; k < crypto_slots_; ++k) {
+            // The first free slot or this id's; a pixel with more ids drops the rest, as Cycles does.
+            if (slots[2 * k] == 0.0f) slots[2 * k] = id;
+            if (slots[2 * k] == id) {
+                slots[2 * k + 1] += 1.0f;
+                break;
+            }
+        }
     }
 }
 

@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "../core/vec.h"
+#include "cryptomatte.h"
 #include "passes.h"
 
 namespace coherent {
@@ -157,6 +158,16 @@ public:
     PassMask passes() const { return passes_; }
     void add_passes(int x, int y, const PassSample& values, uint32_t sample);
 
+    // Cryptomatte (cryptomatte.h): enable_cryptomatte() allocates the
+    // types in `types` (bit per CryptoType) with `levels` ranks (rounded up
+    // to even, at most 16); add_passes() adds each sample's ids.
+    // resolve_cryptomatte() writes layer `layer` (ranks 2 layer, 2 layer + 1)
+    // as RGBA per pixel, top row first; zeros for a type not enabled.
+    void enable_cryptomatte(uint32_t types, int levels);
+    uint32_t cryptomatte_types() const { return crypto_types_; }
+    int cryptomatte_layers() const { return crypto_slots_ / 2; }
+    void resolve_cryptomatte(CryptoType t, int layer, float* out) const;
+
     void clear();
 
 private:
@@ -178,6 +189,9 @@ private:
     std::vector<float> denoised_;  // 3 per pixel; empty until set_denoised()
     PassMask passes_ = 0;
     std::vector<float> pass_sums_[kRenderPassCount];  // channels per pixel; empty unless enabled
+    uint32_t crypto_types_ = 0;
+    int crypto_slots_ = 0;
+    std::vector<float> crypto_[kCryptoTypeCount];  // per pixel crypto_slots_ (id, weight) pairs; id 0 = free
 };
 
 }  // namespace coherent

@@ -67,6 +67,8 @@ constexpr int kRenderPassCount = int(RenderPass::Count);
 using PassMask = uint32_t;
 constexpr PassMask pass_bit(RenderPass p) { return PassMask(1) << uint32_t(p); }
 constexpr PassMask kLightPassMask = pass_bit(RenderPass::Environment) * 2 - 1;  // DiffuseDirect..Environment
+// Not a pass: paths record their first hit's Cryptomatte ids (cryptomatte.h).
+constexpr PassMask kCryptomatteIds = PassMask(1) << 31;
 
 struct RenderPassInfo {
     const char* name;     // Blender (Cycles) render-result pass name
@@ -86,6 +88,7 @@ PassMask pass_mask_from_names(const std::vector<std::string>& names);
 struct PassSample {
     static constexpr int kFloats = 3 * 12 + 1 + 3 + 2;
     float v[kFloats] = {};
+    float crypto_id[3] = {};  // object, material, asset of the first hit; 0 = none (cryptomatte.h)
     void add(RenderPass p, const Vec3f& c) {
         float* d = v + render_pass_info(p).offset;
         d[0] += c.x, d[1] += c.y, d[2] += c.z;

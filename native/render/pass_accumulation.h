@@ -8,6 +8,7 @@
 #include <cmath>
 
 #include "../accel/bvh.h"
+#include "../film/cryptomatte.h"
 #include "../film/passes.h"
 #include "../scene/scene.h"
 #include "bsdf.h"
@@ -92,11 +93,27 @@ struct FirstHit {
     float cos_wo;  // dot(n, wo)
 };
 
+inline uint32_t hit_object(const Scene& scene, const Hit& hit) {
+    return hit.instance != kInvalidPrim ? scene.instances[hit.instance].object : scene.object_of[hit.prim];
+}
+
 inline float object_pass_index(const Scene& scene, const Hit& hit) {
-    const uint32_t object =
-        hit.instance != kInvalidPrim ? scene.instances[hit.instance].object : scene.object_of[hit.prim];
+    const uint32_t object = hit_object(scene, hit);
     const auto& v = scene.data_passes.object_pass_index;
     return object < v.size() ? v[object] : 0.0f;
+}
+
+// The names' Cryptomatte ids (hashed per sample: a few ns a name, and only
+// when Cryptomatte is on).
+inline void record_cryptomatte_ids(const Scene& scene, const Hit& hit, uint32_t material, PassSample& out) {
+    const uint32_t object = hit_object(scene, hit);
+    const DataPassInputs& d = scene.data_passes;
+    const auto name_of = [&](const std::vector<std::string>& names) -> const std::string& {
+        return object < names.size() && !names[object].empty() ? names[object] : scene.object_names[object];
+    };
+    out.crypto_id[0] = cryptomatte_id(name_of(d.crypto_object_names));
+    out.crypto_id[1] = cryptomatte_id(scene.materials[material].name);
+    out.crypto_id[2] = cryptomatte_id(name_of(d.crypto_asset_names));
 }
 
 // Cycles' mist: camera distance (view-axis for orthographic cameras) mapped
@@ -141,6 +158,7 @@ inline void record_first_hit(PassMask mask, PassSample& out, const FirstHit& h, 
     out.set(RenderPass::IndexOB, object_pass_index(scene, *h.hit));
     const auto& ma = scene.data_passes.material_pass_index;
     out.set(RenderPass::IndexMA, h.material < ma.size() ? ma[h.material] : 0.0f);
+    if (mask & kCryptomatteIds) record_cryptomatte_ids(scene, *h.hit, h.material, out);
     if (!(mask & pass_bit(RenderPass::AO))) return;
     // Cycles: cosine about the shading normal, kept only on the geometric side.
     const Vec3f local = sample_cosine_hemisphere(u1, u2);

@@ -349,6 +349,10 @@ Renderer::Renderer(const Scene& scene, const RenderSettings& settings, std::shar
     m.limit_bytes = limit.bytes;
     if (settings_.denoising_features()) film_.enable_denoising_features();
     film_.enable_passes(PassMask(settings_.passes));
+    if (settings_.cryptomatte) {
+        film_.enable_cryptomatte(settings_.cryptomatte, settings_.cryptomatte_levels);
+        settings_.passes |= kCryptomatteIds;  // paths record their ids
+    }
 }
 
 Renderer::~Renderer() = default;

@@ -65,6 +65,10 @@ struct DataPassInputs {
     std::vector<float> object_pass_index, material_pass_index;
     float mist_start = 5.0f, mist_depth = 25.0f, mist_falloff = 2.0f;
     float ao_distance = 0.0f;
+    // Cryptomatte names per object (empty entries or vectors: the object's
+    // name): the object as Blender names it (an instance's own object) and
+    // its asset (the top-level parent).
+    std::vector<std::string> crypto_object_names, crypto_asset_names;
 };
 
 struct Scene {

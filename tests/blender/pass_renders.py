@@ -8,6 +8,10 @@
 # agreement tests). MODE "data": Mist, Position, Depth and the indices at
 # SAMPLES spp with the filter shrunk to the pixel centre in Cycles; object
 # and material pass indices are set first (1, 2, ... in name order).
+# MODE "crypto": Cryptomatte object, material and asset (4 levels) and
+# IndexOB; "matte": the same through the compositor's Cryptomatte node,
+# which picks MetalSphere, to a plain EXR of its matte, and IndexOB through
+# a File Output node to OUT_DIR/index0001.exr.
 
 import os
 import sys
@@ -38,6 +42,38 @@ if mode == "light":
     view_layer.use_pass_emit = True
     view_layer.use_pass_environment = True
     view_layer.use_pass_ambient_occlusion = True
+elif mode in ("crypto", "matte"):
+    # Cryptomatte; "matte" also runs the compositor: Cryptomatte node
+    # (picking MetalSphere) -> Composite, saved as a plain EXR.
+    view_layer.use_pass_object_index = True
+    view_layer.use_pass_cryptomatte_object = True
+    view_layer.use_pass_cryptomatte_material = True
+    view_layer.use_pass_cryptomatte_asset = True
+    view_layer.pass_cryptomatte_depth = 4
+    for i, ob in enumerate(sorted(bpy.data.objects, key=lambda o: o.name)):
+        ob.pass_index = i + 1
+    if mode == "matte":
+        render.image_settings.file_format = "OPEN_EXR"
+        render.use_compositing = True
+        scene.use_nodes = True
+        tree = scene.node_tree
+        tree.nodes.clear()
+        layers = tree.nodes.new("CompositorNodeRLayers")
+        matte = tree.nodes.new("CompositorNodeCryptomatteV2")
+        matte.source = "RENDER"
+        matte.scene = scene
+        matte.layer_name = f"{view_layer.name}.CryptoObject"
+        matte.matte_id = "MetalSphere"
+        out = tree.nodes.new("CompositorNodeComposite")
+        tree.links.new(layers.outputs["Image"], matte.inputs["Image"])
+        tree.links.new(matte.outputs["Matte"], out.inputs["Image"])
+        index = tree.nodes.new("CompositorNodeOutputFile")  # IndexOB beside it: OUT_DIR/index0001.exr
+        index.base_path = out_dir
+        index.format.file_format = "OPEN_EXR"
+        index.format.color_depth = "32"
+        index.file_slots[0].path = "index"
+        tree.links.new(layers.outputs["IndexOB"], index.inputs[0])
+        print("METAL_SPHERE_INDEX", bpy.data.objects["MetalSphere"].pass_index)
 else:
     for name in ("mist", "position", "z", "object_index", "material_index"):
         setattr(view_layer, f"use_pass_{name}", True)

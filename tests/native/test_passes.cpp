@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdio>
 
 #include "test_render_helpers.h"
 
@@ -156,6 +157,63 @@ TEST(Passes, NamesParseAndUnknownNamesAreNamed) {
     } catch (const std::invalid_argument& e) {
         EXPECT_NE(std::string(e.what()).find("'diffuse'"), std::string::npos);
     }
+}
+
+// MurmurHash3_x86_32 reference values (seed 0), and Cycles' float conversion.
+TEST(Cryptomatte, HashAndIdAreCycles) {
+    EXPECT_EQ(murmur_hash3(""), 0u);
+    EXPECT_EQ(murmur_hash3("hello"), 0x248bfa47u);
+    EXPECT_EQ(murmur_hash3("The quick brown fox jumps over the lazy dog"), 0x2e4ff723u);
+    // Exponent clamped into [1, 254]: never 0, denormal, inf or NaN.
+    for (uint32_t h : {0u, 0x7f800000u, 0xffffffffu, 0x00000001u}) {
+        const float f = hash_to_float(h);
+        EXPECT_TRUE(std::isnormal(f)) << h;
+    }
+    EXPECT_EQ(cryptomatte_manifest({"a", "b\"a"}), std::string("{\"a\":\"") + [] {
+        char hex[9];
+        std::snprintf(hex, sizeof hex, "%08x", murmur_hash3("a"));
+        return std::string(hex);
+    }() + "\",\"b\\\"a\":\"" + [] {
+        char hex[9];
+        std::snprintf(hex, sizeof hex, "%08x", murmur_hash3("b\"a"));
+        return std::string(hex);
+    }() + "\"}");
+}
+
+// Two quads meet in the middle of the image's middle column: rank 0 holds
+// the id covering most of a pixel, coverages add up to 1 where no world is seen.
+TEST(Cryptomatte, RankedCoverage) {
+    Scene s;
+    s.add_material(diffuse_material(Vec3f(0.5f), "matA"));
+    const uint32_t b = s.add_material(diffuse_material(Vec3f(0.5f), "matB"));
+    add_quad(s, {-1.0f, 0, 0}, {1, 0, 0}, {0, 1, 0}, 2.0f, 4.0f, 0, "left");
+    add_quad(s, {1.0f, 0, 0}, {1, 0, 0}, {0, 1, 0}, 2.0f, 4.0f, b, "right");
+    s.camera = ortho_camera_looking_down(10.0f, 2.0f * 7.0f / 8.0f);  // pixel 3 of 7 straddles x = 0
+    s.finalize();
+    RenderSettings rs = small_settings(7, 64);
+    rs.cryptomatte = 0b111;
+    rs.cryptomatte_levels = 4;
+    Renderer r(s, rs);
+    r.render();
+    ASSERT_EQ(r.film().cryptomatte_layers(), 2);
+    std::vector<float> l0(7 * 7 * 4), l1(7 * 7 * 4);
+    r.film().resolve_cryptomatte(CryptoType::Object, 0, l0.data());
+    r.film().resolve_cryptomatte(CryptoType::Object, 1, l1.data());
+    const float left = cryptomatte_id("left"), right = cryptomatte_id("right");
+    for (int y = 0; y < 7; ++y) {
+        const float* p = &l0[size_t(y * 7) * 4];
+        EXPECT_EQ(p[0], left);
+        EXPECT_EQ(p[1], 1.0f);
+        EXPECT_EQ(p[3], 0.0f);
+        const float* m = &l0[size_t(y * 7 + 3) * 4];  // the straddling pixel: both ids
+        EXPECT_TRUE((m[0] == left && m[2] == right) || (m[0] == right && m[2] == left));
+        EXPECT_GE(m[1], m[3]);
+        EXPECT_NEAR(m[1] + m[3], 1.0f, 1e-6f);
+        EXPECT_EQ(l1[size_t(y * 7 + 3) * 4 + 1], 0.0f);
+    }
+    std::vector<float> mat(7 * 7 * 4);
+    r.film().resolve_cryptomatte(CryptoType::Material, 0, mat.data());
+    EXPECT_EQ(mat[size_t(6) * 4], cryptomatte_id("matB"));
 }
 
 }  // namespace
