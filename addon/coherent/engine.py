@@ -43,6 +43,112 @@ _PASSES = {
     "Noisy Image": ("RGBA", "COLOR"),
 }
 
+# Cycles' passes: (ViewLayer property, pass name, channel ids, pass type), in
+# the order Cycles registers them. Ticked ones are accumulated natively
+# (Renderer(passes=...)); the others cost nothing.
+VIEW_LAYER_PASSES = (
+    ("use_pass_mist", "Mist", "Z", "VALUE"),
+    ("use_pass_position", "Position", "XYZ", "VECTOR"),
+    ("use_pass_object_index", "IndexOB", "X", "VALUE"),
+    ("use_pass_material_index", "IndexMA", "X", "VALUE"),
+    ("use_pass_diffuse_direct", "DiffDir", "RGB", "COLOR"),
+    ("use_pass_diffuse_indirect", "DiffInd", "RGB", "COLOR"),
+    ("use_pass_diffuse_color", "DiffCol", "RGB", "COLOR"),
+    ("use_pass_glossy_direct", "GlossDir", "RGB", "COLOR"),
+    ("use_pass_glossy_indirect", "GlossInd", "RGB", "COLOR"),
+    ("use_pass_glossy_color", "GlossCol", "RGB", "COLOR"),
+    ("use_pass_transmission_direct", "TransDir", "RGB", "COLOR"),
+    ("use_pass_transmission_indirect", "TransInd", "RGB", "COLOR"),
+    ("use_pass_transmission_color", "TransCol", "RGB", "COLOR"),
+    ("use_pass_emit", "Emit", "RGB", "COLOR"),
+    ("use_pass_environment", "Env", "RGB", "COLOR"),
+    ("use_pass_ambient_occlusion", "AO", "RGB", "COLOR"),
+)
+_PASSES.update({name: (chan_id, kind) for _, name, chan_id, kind in VIEW_LAYER_PASSES})
+
+# Blender's World > Mist falloff as Cycles' exponent.
+_MIST_FALLOFF = {"QUADRATIC": 2.0, "LINEAR": 1.0, "INVERSE_QUADRATIC": 0.5}
+
+
+def enabled_passes(view_layer):
+    """Names of the Cycles passes ticked in `view_layer`."""
+    return [name for prop, name, _, _ in VIEW_LAYER_PASSES if getattr(view_layer, prop, False)]
+
+
+# Cryptomatte: (ViewLayer property, native type, pass name prefix), as Cycles names them.
+CRYPTOMATTE = (("use_pass_cryptomatte_object", "object", "CryptoObject"),
+               ("use_pass_cryptomatte_material", "material", "CryptoMaterial"),
+               ("use_pass_cryptomatte_asset", "asset", "CryptoAsset"))
+
+
+def cryptomatte_types(view_layer):
+    """The Cryptomatte types ticked in `view_layer`, native names."""
+    return [kind for prop, kind, _ in CRYPTOMATTE if getattr(view_layer, prop, False)]
+
+
+def cryptomatte_pass_names(view_layer, prefix):
+    """CryptoObject00, CryptoObject01, ...: a pass per two levels (Cycles)."""
+    return [f"{prefix}{i:02d}" for i in range((min(16, view_layer.pass_cryptomatte_depth) + 1) // 2)]
+
+
+def _crypto_names(nscene):
+    """Per exported object, the names Cryptomatte hashes: the object's own
+    (an instance "parent/object" is its object) and its asset, the top-level
+    parent, as Cycles names them."""
+    objects = bpy.data.objects
+    names, assets = [], []
+    for name in nscene.object_names:
+        own = name.rsplit("/", 1)[-1]
+        names.append(own)
+        ob = objects.get(own)
+        while ob is not None and ob.parent is not None:
+            ob = ob.parent
+        assets.append(ob.name if ob is not None else own)
+    return names, assets
+
+
+def stamp_cryptomatte(result, nscene, view_layer, native):
+    """Cycles' Cryptomatte metadata (blender/session.cpp add_cryptomatte_layer):
+    per type, cryptomatte/<first 7 hex digits of the layer name's hash>/
+    name, hash, conversion and manifest."""
+    objects, assets = _crypto_names(nscene)
+    materials = [nscene.material(i)["name"] for i in range(nscene.material_count)]
+    for kind, names in (("object", objects), ("material", materials), ("asset", assets)):
+        if kind not in cryptomatte_types(view_layer):
+            continue
+        layer = f"{view_layer.name}.Crypto{kind.capitalize()}"
+        key = f"cryptomatte/{native.Scene.cryptomatte_hash(layer):08x}"[:len("cryptomatte/") + 7]
+        result.stamp_data_add_field(f"{key}/name", layer)
+        result.stamp_data_add_field(f"{key}/hash", "MurmurHash3_32")
+        result.stamp_data_add_field(f"{key}/conversion", "uint32_to_float32")
+        result.stamp_data_add_field(f"{key}/manifest", native.Scene.cryptomatte_manifest(names))
+
+
+def set_data_pass_inputs(nscene, bscene):
+    """What the data passes read: pass_index of objects (by exported name;
+    an instance "parent/object" takes its object's) and materials (by name),
+    and the World's mist and AO distance. Per object and material, never per
+    vertex."""
+    objects = bpy.data.objects
+    object_index = {}
+    for name in nscene.object_names:
+        ob = objects.get(name) or objects.get(name.rsplit("/", 1)[-1])
+        if ob is not None and ob.pass_index:
+            object_index[name] = float(ob.pass_index)
+    material_index = []
+    for i in range(nscene.material_count):
+        mat = bpy.data.materials.get(nscene.material(i)["name"]) if i else None
+        material_index.append(float(mat.pass_index) if mat is not None else 0.0)
+    world = bscene.world
+    kwargs = {}
+    if world is not None:
+        mist = world.mist_settings
+        kwargs = dict(mist_start=mist.start, mist_depth=mist.depth,
+                      mist_falloff=_MIST_FALLOFF.get(mist.falloff, 2.0), ao_distance=world.light_settings.distance)
+    crypto_objects, crypto_assets = _crypto_names(nscene)
+    nscene.set_data_passes(object_pass_index=object_index, material_pass_index=material_index,
+                           crypto_object_names=crypto_objects, crypto_asset_names=crypto_assets, **kwargs)
+
 # Integrator and traversal as the Info report names them.
 _INTEGRATOR_NAMES = {"pt": "path tracing", "drt": "distribution ray tracing", "wrt": "Whitted ray tracing",
                      "rcs": "ray casting", "ao": "ambient occlusion"}
@@ -255,6 +361,13 @@ class CoherentRenderEngine(bpy.types.RenderEngine):
             self.register_pass(scene, renderlayer, "Denoising Normal", 3, "XYZ", "VECTOR")
         if scene is not None and scene.coherent.use_denoising:
             self.register_pass(scene, renderlayer, "Noisy Image", 4, "RGBA", "COLOR")
+        for prop, name, chan_id, kind in VIEW_LAYER_PASSES:
+            if getattr(renderlayer, prop, False):
+                self.register_pass(scene, renderlayer, name, len(chan_id), chan_id, kind)
+        for prop, _, prefix in CRYPTOMATTE:
+            if getattr(renderlayer, prop, False):
+                for name in cryptomatte_pass_names(renderlayer, prefix):
+                    self.register_pass(scene, renderlayer, name, 4, "rgba", "COLOR")  # lower case, as Cycles
 
     # -- final render -------------------------------------------------------------
 
@@ -315,12 +428,17 @@ class CoherentRenderEngine(bpy.types.RenderEngine):
             print(f"Coherent: {nscene.instance_count:,} instances of {nscene.prototype_count} shared meshes "
                   f"({nscene.instanced_triangle_count:,} triangles as instanced) beside "
                   f"{nscene.triangle_count:,} world-space triangles")
+        view_layer = depsgraph.view_layer
+        passes, cryptomatte = enabled_passes(view_layer), cryptomatte_types(view_layer)
+        if passes or cryptomatte:
+            set_data_pass_inputs(nscene, scene)
         build_start = time.perf_counter()
         renderer = native.Renderer(
             nscene, width=width, height=height, spp=props.samples,
             seed=props.seed_for_frame(scene.frame_current), border=border,
             progressive_display=False, target_error=props.target_error, time_limit=props.time_limit,
-            denoise=props.use_denoising, **props.renderer_kwargs(scene))
+            denoise=props.use_denoising, passes=passes, cryptomatte=cryptomatte,
+            cryptomatte_levels=min(16, view_layer.pass_cryptomatte_depth), **props.renderer_kwargs(scene))
         build_seconds = time.perf_counter() - build_start
         self._renderer = renderer
         reuse = self._persistent.report if self._persistent is not None else None
@@ -342,6 +460,9 @@ class CoherentRenderEngine(bpy.types.RenderEngine):
         finally:
             self.end_result(result)
             self._renderer = None
+        if cryptomatte:
+            # On the engine's whole result (a begin_result() one does not keep metadata), as Cycles does.
+            stamp_cryptomatte(self.get_result(), nscene, view_layer, native)
 
         stats = renderer.stats()
         state = "finished" if finished else "cancelled"
@@ -445,7 +566,8 @@ class CoherentRenderEngine(bpy.types.RenderEngine):
     def _write_passes(result, renderer, names):
         for layer in result.layers:
             for render_pass in layer.passes:
-                if render_pass.name not in _PASSES or (names is not None and render_pass.name not in names):
+                known = render_pass.name in _PASSES or render_pass.name.startswith("Crypto")
+                if not known or (names is not None and render_pass.name not in names):
                     continue
                 pixels = renderer.pass_pixels(render_pass.name)
                 if pixels.shape[1] != render_pass.channels:

@@ -292,8 +292,18 @@ class DATA_PT_coherent_light(CoherentButtonsPanel, bpy.types.Panel):
 
 
 class VIEWLAYER_PT_coherent_passes(CoherentButtonsPanel, bpy.types.Panel):
+    """Blender's own pass settings, laid out as Cycles' Passes panel."""
     bl_label = "Passes"
     bl_context = "view_layer"
+
+    def draw(self, context):
+        pass
+
+
+class VIEWLAYER_PT_coherent_passes_data(CoherentButtonsPanel, bpy.types.Panel):
+    bl_label = "Data"
+    bl_context = "view_layer"
+    bl_parent_id = "VIEWLAYER_PT_coherent_passes"
 
     def draw(self, context):
         layout = self.layout
@@ -303,12 +313,50 @@ class VIEWLAYER_PT_coherent_passes(CoherentButtonsPanel, bpy.types.Panel):
         col = layout.column(heading="Include", align=True)
         col.prop(view_layer, "use_pass_combined")
         col.prop(view_layer, "use_pass_z")
+        col.prop(view_layer, "use_pass_mist")
+        col.prop(view_layer, "use_pass_position")
         col.prop(view_layer, "use_pass_normal")
         col.prop(context.scene.coherent, "use_pass_error")
         col.prop(context.scene.coherent, "use_pass_denoising_data")
+        col = layout.column(heading="Indexes", align=True)
+        col.prop(view_layer, "use_pass_object_index")
+        col.prop(view_layer, "use_pass_material_index")
         col = layout.column(heading="Diagnostics", align=True)
         col.prop(context.scene.coherent, "use_pass_bvh_visits")
         col.prop(context.scene.coherent, "use_pass_simd_utilisation")
+
+
+class VIEWLAYER_PT_coherent_passes_light(CoherentButtonsPanel, bpy.types.Panel):
+    bl_label = "Light"
+    bl_context = "view_layer"
+    bl_parent_id = "VIEWLAYER_PT_coherent_passes"
+
+    def draw(self, context):
+        layout = self.layout
+        layout.use_property_split = True
+        layout.use_property_decorate = False
+        view_layer = context.view_layer
+        for heading, lobe in (("Diffuse", "diffuse"), ("Glossy", "glossy"), ("Transmission", "transmission")):
+            col = layout.column(heading=heading, align=True)
+            col.prop(view_layer, f"use_pass_{lobe}_direct", text="Direct")
+            col.prop(view_layer, f"use_pass_{lobe}_indirect", text="Indirect")
+            col.prop(view_layer, f"use_pass_{lobe}_color", text="Color")
+        col = layout.column(heading="Other", align=True)
+        col.prop(view_layer, "use_pass_emit", text="Emission")
+        col.prop(view_layer, "use_pass_environment")
+        col.prop(view_layer, "use_pass_ambient_occlusion", text="Ambient Occlusion")
+
+
+def _cryptomatte_panel():
+    """Blender's own Cryptomatte panel (as Cycles shows it) under our Passes."""
+    from bl_ui.properties_view_layer import ViewLayerCryptomattePanel
+
+    class VIEWLAYER_PT_coherent_passes_crypto(CoherentButtonsPanel, ViewLayerCryptomattePanel, bpy.types.Panel):
+        bl_label = "Cryptomatte"
+        bl_context = "view_layer"
+        bl_parent_id = "VIEWLAYER_PT_coherent_passes"
+
+    return VIEWLAYER_PT_coherent_passes_crypto
 
 
 classes = (
@@ -322,6 +370,9 @@ classes = (
     RENDER_PT_coherent_performance,
     DATA_PT_coherent_light,
     VIEWLAYER_PT_coherent_passes,
+    VIEWLAYER_PT_coherent_passes_data,
+    VIEWLAYER_PT_coherent_passes_light,
+    _cryptomatte_panel(),
 )
 
 

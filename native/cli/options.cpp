@@ -1,5 +1,8 @@
 #include "options.h"
 
+#include "film/passes.h"
+
+#include <algorithm>
 #include <cstring>
 #include <sstream>
 #include <stdexcept>
@@ -84,6 +87,19 @@ void apply_res(RenderOptions& options, const std::string& value) {
     }
 }
 
+// --passes diffdir,mist: the film/passes.h mask.
+void apply_passes(RenderOptions& o, const std::string& value) {
+    std::vector<std::string> names;
+    size_t start = 0;
+    while (start <= value.size()) {
+        const size_t comma = std::min(value.find(',', start), value.size());
+        if (comma > start) names.push_back(value.substr(start, comma - start));
+        start = comma + 1;
+    }
+    if (names.empty()) throw std::invalid_argument("expected pass names separated by commas");
+    o.settings.passes = pass_mask_from_names(names);
+}
+
 std::vector<OptionSpec> cli_options() {
     const RenderSettings d;
     return {
@@ -97,6 +113,11 @@ std::vector<OptionSpec> cli_options() {
          "write seconds,spp,error_estimate per completed sample pass (from the 2nd, when an estimate exists); "
          "plot it with coherent plot CSV",
          "Output", [](RenderOptions& o, const std::string& v) { o.convergence = v; }},
+        {"--passes", "", "NAMES",
+         "Cycles' render passes to accumulate and write into the EXR as layers of Cycles' names, comma-separated: "
+         "diffdir, diffind, diffcol, glossdir, glossind, glosscol, transdir, transind, transcol, emit, env, ao, mist, "
+         "position, indexob, indexma (a pass not named costs nothing)",
+         "Output", apply_passes},
         {"--json", "", "", "print render statistics as one JSON object on stdout", "Output",
          [](RenderOptions& o, const std::string& v) { o.json = flag_value(v); }},
         {"--help", "-h", "", "show this help", "Output",

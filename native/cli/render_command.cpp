@@ -190,6 +190,10 @@ int run_render(const std::vector<std::string>& args) {
         print_error("unknown output format '" + options.output + "' (use .exr or .png)");
         return kExitBadUsage;
     }
+    if (options.settings.passes && image_format_for(options.output) != ImageFormat::Exr) {
+        print_error("--passes needs an .exr output ('" + options.output + "' holds Combined only)");
+        return kExitBadUsage;
+    }
     try {
         return render(options);
     } catch (const std::bad_alloc&) {

@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <utility>
 
 namespace coherent {
 
@@ -22,6 +23,18 @@ const PassInfo& pass_info(PassType t) {
         {PassType::DenoisingNormal, "Denoising Normal", 3, "XYZ"},
         {PassType::NoisyImage, "Noisy Image", 4, "RGBA"},
     };
+    if (is_render_pass(t)) {
+        // Built once from passes.h's table.
+        static const auto render_infos = [] {
+            std::vector<PassInfo> v;
+            for (int i = 0; i < kRenderPassCount; ++i) {
+                const RenderPassInfo& r = render_pass_info(RenderPass(i));
+                v.push_back({pass_type(RenderPass(i)), r.name, r.channels, r.chan_id});
+            }
+            return v;
+        }();
+        return render_infos[size_t(render_pass(t))];
+    }
     return infos[size_t(t)];
 }
 
@@ -42,6 +55,125 @@ void Film::clear() {
     albedo_.clear(), albedo_odd_.clear(), dnormal_.clear(), dnormal_odd_.clear();
     if (features) enable_denoising_features();
     denoised_.clear();
+    const PassMask passes = passes_;
+    passes_ = 0;
+    enable_passes(passes);
+    const uint32_t crypto = crypto_types_;
+    crypto_types_ = 0;
+    enable_cryptomatte(crypto, crypto_slots_);
+}
+
+void Film::enable_cryptomatte(uint32_t types, int levels) {
+    crypto_types_ = types;
+    crypto_slots_ = types ? 2 * ((std::clamp(levels, 1, 16) + 1) / 2) : 0;
+    const size_t n = size_t(width_) * size_t(height_);
+    for (int t = 0; t < kCryptoTypeCount; ++t) {
+        if (types & (1u << t)) crypto_[t].assign(n * size_t(crypto_slots_) * 2, 0.0f);
+        else crypto_[t].clear();
+    }
+}
+
+void Film::resolve_cryptomatte(CryptoType t, int layer, float* out) const {
+    const size_t n = size_t(width_) * size_t(height_);
+    const std::vector<float>& b = crypto_[int(t)];
+    std::vector<std::pair<float, float>> ranked(static_cast<size_t>(crypto_slots_));
+    for (size_t i = 0; i < n; ++i) {
+        float* o = out + 4 * i;
+        std::fill(o, o + 4, 0.0f);
+        if (b.empty() || count_[i] == 0 || 2 * layer + 1 >= crypto_slots_) continue;
+        const float* slots = &b[i * size_t(crypto_slots_) * 2];
+        for (int k = 0; k < crypto_slots_; ++k) ranked[size_t(k)] = {slots[2 * k], slots[2 * k + 1]};
+        // By coverage, highest first (Cycles' film_cryptomatte_post); ties keep slot order.
+        std::stable_sort(ranked.begin(), ranked.end(), [](const auto& a, const auto& c) { return a.second > c.second; });
+        const float inv = 1.0f / float(count_[i]);
+        for (int r = 0; r < 2; ++r) {
+            o[2 * r] = ranked[size_t(2 * layer + r)].first;
+            o[2 * r + 1] = ranked[size_t(2 * layer + r)].second * inv;
+        }
+    }
+}
+
+
+void Film::enable_passes(PassMask mask) {
+    // Cycles divides Dir and Ind by Col: a lobe's Col is kept whenever one of them is.
+    constexpr int kLobes[3] = {int(RenderPass::DiffuseDirect), int(RenderPass::GlossyDirect),
+                               int(RenderPass::TransmissionDirect)};
+    for (int first : kLobes)
+        if (mask & ((PassMask(1) << first) | (PassMask(1) << (first + 1)))) mask |= PassMask(1) << (first + 2);
+    const size_t n = size_t(width_) * size_t(height_);
+    mask &= (PassMask(1) << kRenderPassCount) - 1;  // pass bits only
+    for (int p = 0; p < kRenderPassCount; ++p)
+        if ((mask & pass_bit(RenderPass(p))) && !(passes_ & pass_bit(RenderPass(p))))
+            pass_sums_[p].assign(n * size_t(render_pass_info(RenderPass(p)).channels), 0.0f);
+    passes_ |= mask;
+}
+
+void Film::add_passes(int x, int y, const PassSample& values, uint32_t sample) {
+    const size_t i = size_t(y) * size_t(width_) + size_t(x);
+    for (int p = 0; p < kRenderPassCount; ++p) {
+        if (!(passes_ & pass_bit(RenderPass(p)))) continue;
+        const RenderPassInfo& info = render_pass_info(RenderPass(p));
+        const float* v = values.v + info.offset;
+        float* d = &pass_sums_[p][i * size_t(info.channels)];
+        if (RenderPass(p) >= RenderPass::Position) {
+            // Sample 0 only (Cycles): an average of positions or indices means nothing.
+            if (sample == 0)
+                for (int c = 0; c < info.channels; ++c) d[c] = v[c];
+            continue;
+        }
+        for (int c = 0; c < info.channels; ++c) d[c] += v[c];
+    }
+    for (int t = 0; t < kCryptoTypeCount; ++t) {
+        const float id = values.crypto_id[t];
+        if (!(crypto_types_ & (1u << t)) || id == 0.0f) continue;
+        float* slots = &crypto_[t][i * size_t(crypto_slots_) * 2];
+        for (int k = 0; k < crypto_slots_; ++k) {
+            // The first free slot or this id's; a pixel with more ids drops the rest, as Cycles does.
+            if (slots[2 * k] == 0.0f) slots[2 * k] = id;
+            if (slots[2 * k] == id) {
+                slots[2 * k + 1] += 1.0f;
+                break;
+            }
+        }
+    }
+}
+
+void Film::resolve_render_pass(PassType t, size_t i, float* out) const {
+    const RenderPass p = render_pass(t);
+    const int channels = render_pass_info(p).channels;
+    const std::vector<float>& sums = pass_sums_[int(p)];
+    if (sums.empty()) {
+        for (int c = 0; c < channels; ++c) out[c] = 0.0f;
+        return;
+    }
+    const float* s = &sums[i * size_t(channels)];
+    const float inv = count_[i] ? 1.0f / float(count_[i]) : 0.0f;
+    switch (p) {
+        case RenderPass::DiffuseDirect:
+        case RenderPass::DiffuseIndirect:
+        case RenderPass::GlossyDirect:
+        case RenderPass::GlossyIndirect:
+        case RenderPass::TransmissionDirect:
+        case RenderPass::TransmissionIndirect: {
+            // Divided by the lobe's Col (both sums over the same samples), 0 where Col is.
+            const int color = (int(p) / 3) * 3 + 2;
+            const float* col = &pass_sums_[color][3 * i];
+            for (int c = 0; c < 3; ++c) out[c] = col[c] != 0.0f ? s[c] / col[c] : 0.0f;
+            break;
+        }
+        case RenderPass::Mist:
+            // Accumulated as 1 - mist (0 for the world), as Cycles does.
+            out[0] = count_[i] ? 1.0f - s[0] * inv : 0.0f;
+            break;
+        case RenderPass::Position:
+        case RenderPass::IndexOB:
+        case RenderPass::IndexMA:
+            for (int c = 0; c < channels; ++c) out[c] = s[c];
+            break;
+        default:
+            for (int c = 0; c < channels; ++c) out[c] = s[c] * inv;
+            break;
+    }
 }
 
 void Film::enable_denoising_features() {
@@ -172,6 +304,11 @@ double Film::relative_rmse_estimate() const {
 
 void Film::resolve_into(PassType t, float* out) const {
     const size_t n = size_t(width_) * size_t(height_);
+    if (is_render_pass(t)) {
+        const size_t channels = size_t(pass_info(t).channels);
+        for (size_t i = 0; i < n; ++i) resolve_render_pass(t, i, out + channels * i);
+        return;
+    }
     for (size_t i = 0; i < n; ++i) {
         const float inv = count_[i] ? 1.0f / float(count_[i]) : 0.0f;
         switch (t) {
@@ -205,6 +342,8 @@ void Film::resolve_into(PassType t, float* out) const {
                 out[i] = heat_.empty() || heat_count_[i] == 0 ? 0.0f : heat_[2 * i + c] / float(heat_count_[i]);
                 break;
             }
+            default:
+                break;  // render passes: above
         }
     }
 }

@@ -8,6 +8,8 @@
 #include <vector>
 
 #include "../core/vec.h"
+#include "cryptomatte.h"
+#include "passes.h"
 
 namespace coherent {
 
@@ -29,8 +31,29 @@ enum class PassType : uint8_t {
     SimdUtilisation,
     DenoisingAlbedo,
     DenoisingNormal,
-    NoisyImage
+    NoisyImage,
+    // Cycles' light and data passes (passes.h), in RenderPass order.
+    DiffuseDirect,
+    DiffuseIndirect,
+    DiffuseColor,
+    GlossyDirect,
+    GlossyIndirect,
+    GlossyColor,
+    TransmissionDirect,
+    TransmissionIndirect,
+    TransmissionColor,
+    Emission,
+    Environment,
+    AO,
+    Mist,
+    Position,
+    IndexOB,
+    IndexMA
 };
+constexpr PassType pass_type(RenderPass p) { return PassType(int(PassType::DiffuseDirect) + int(p)); }
+constexpr bool is_render_pass(PassType t) { return t >= PassType::DiffuseDirect; }
+constexpr RenderPass render_pass(PassType t) { return RenderPass(int(t) - int(PassType::DiffuseDirect)); }
+constexpr int kPassTypeCount = int(PassType::IndexMA) + 1;
 
 struct PassInfo {
     PassType type;
@@ -126,9 +149,31 @@ public:
     void set_denoised(std::vector<float> rgb);
     bool denoised() const { return !denoised_.empty(); }
 
+    // Cycles' passes (passes.h): enable_passes() allocates the passes of
+    // `mask` (before rendering, like the heatmaps; the others cost nothing);
+    // add_passes() adds one sample's values to the enabled ones (Position,
+    // IndexOB and IndexMA only from sample 0, as Cycles). A pass not
+    // enabled resolves to zeros.
+    void enable_passes(PassMask mask);
+    PassMask passes() const { return passes_; }
+    void add_passes(int x, int y, const PassSample& values, uint32_t sample);
+
+    // Cryptomatte (cryptomatte.h): enable_cryptomatte() allocates the
+    // types in `types` (bit per CryptoType) with `levels` ranks (rounded up
+    // to even, at most 16); add_passes() adds each sample's ids.
+    // resolve_cryptomatte() writes layer `layer` (ranks 2 layer, 2 layer + 1)
+    // as RGBA per pixel, top row first; zeros for a type not enabled.
+    void enable_cryptomatte(uint32_t types, int levels);
+    uint32_t cryptomatte_types() const { return crypto_types_; }
+    int cryptomatte_layers() const { return crypto_slots_ / 2; }
+    void resolve_cryptomatte(CryptoType t, int layer, float* out) const;
+
     void clear();
 
 private:
+    // Resolves pass t (is_render_pass) of pixel i into out (its channels).
+    void resolve_render_pass(PassType t, size_t i, float* out) const;
+
     int width_ = 0, height_ = 0;
     std::vector<float> rgba_;     // 4 per pixel, sums
     std::vector<float> depth_;    // sum of depths over samples that hit
@@ -142,6 +187,11 @@ private:
     // Denoising features, sums (3 per pixel); empty unless enabled.
     std::vector<float> albedo_, albedo_odd_, dnormal_, dnormal_odd_;
     std::vector<float> denoised_;  // 3 per pixel; empty until set_denoised()
+    PassMask passes_ = 0;
+    std::vector<float> pass_sums_[kRenderPassCount];  // channels per pixel; empty unless enabled
+    uint32_t crypto_types_ = 0;
+    int crypto_slots_ = 0;
+    std::vector<float> crypto_[kCryptoTypeCount];  // per pixel crypto_slots_ (id, weight) pairs; id 0 = free
 };
 
 }  // namespace coherent

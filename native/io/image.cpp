@@ -54,6 +54,8 @@ bool write_exr(const std::string& path, const ImagePasses& p, std::string& error
     std::vector<std::string> names = {"R", "G", "B", "A"};
     if (p.depth) names.push_back("Z");
     if (p.normal) names.insert(names.end(), {"N.X", "N.Y", "N.Z"});
+    for (const ImagePasses::Layer& layer : p.layers)
+        for (char c : layer.channel_ids) names.push_back(layer.name + "." + c);
     const int nch = int(names.size());
 
     OIIO::ImageSpec spec(p.width, p.height, nch, OIIO::TypeDesc::FLOAT);
@@ -71,6 +73,10 @@ bool write_exr(const std::string& path, const ImagePasses& p, std::string& error
         if (p.depth) *dst++ = p.depth[i];
         if (p.normal)
             for (int c = 0; c < 3; ++c) *dst++ = p.normal[i * 3 + size_t(c)];
+        for (const ImagePasses::Layer& layer : p.layers) {
+            const size_t k = layer.channel_ids.size();
+            for (size_t c = 0; c < k; ++c) *dst++ = layer.pixels[i * k + c];
+        }
     }
     return write_with_oiio(path, spec, OIIO::TypeDesc::FLOAT, pixels.data(), error);
 }
@@ -155,6 +161,14 @@ bool write_film(const std::string& path, const Film& film, std::string& error) {
     passes.combined = combined.data();
     passes.depth = depth.data();
     passes.normal = normal.data();
+    std::vector<std::vector<float>> resolved;
+    resolved.reserve(kRenderPassCount);
+    for (int i = 0; i < kRenderPassCount; ++i) {
+        if (!(film.passes() & pass_bit(RenderPass(i)))) continue;
+        const RenderPassInfo& info = render_pass_info(RenderPass(i));
+        resolved.push_back(film.resolve(pass_type(RenderPass(i))));
+        passes.layers.push_back({info.name, info.chan_id, resolved.back().data()});
+    }
     return write_image(path, passes, error);
 }
 

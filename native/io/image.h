@@ -11,6 +11,7 @@
 
 #include <cstdint>
 #include <string>
+#include <vector>
 
 namespace coherent {
 
@@ -27,13 +28,23 @@ struct ImagePasses {
     const float* combined = nullptr;  // width*height*4, required
     const float* depth = nullptr;     // width*height, optional (EXR only)
     const float* normal = nullptr;    // width*height*3, optional (EXR only)
+    // More layers (EXR only), channels named "<name>.<channel id>" (the
+    // OpenEXR layer convention: "DiffDir.R", "Mist.Z").
+    struct Layer {
+        std::string name;
+        std::string channel_ids;  // one character per channel: "RGB", "XYZ", "Z"
+        const float* pixels;      // width*height*channels
+    };
+    std::vector<Layer> layers;
 };
 
 // Writes the passes; false with a one-line `error` naming the file if the
 // extension is unknown, a buffer is missing or the file cannot be written.
 bool write_image(const std::string& path, const ImagePasses& passes, std::string& error);
 
-// Resolves Combined, Depth and Normal from the film and writes them.
+// Resolves Combined, Depth and Normal from the film and writes them, and
+// to an EXR also every render pass the film accumulated (film/passes.h) as
+// a layer of Cycles' name.
 bool write_film(const std::string& path, const Film& film, std::string& error);
 
 // Diagnostic images (heatmaps): one float channel named `channel` to an

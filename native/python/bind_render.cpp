@@ -6,6 +6,7 @@
 // render(), between or within sample passes). cancel() only flips an atomic,
 // so it can be called from any Python thread while render() runs.
 #include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <exception>
 #include <mutex>
@@ -35,10 +36,12 @@ constexpr PassType kPassTypes[] = {PassType::Combined,        PassType::Depth,  
 PassType pass_from_name(const std::string& name) {
     for (PassType t : kPassTypes)
         if (name == pass_info(t).name) return t;
+    for (int i = 0; i < kRenderPassCount; ++i)
+        if (name == render_pass_info(RenderPass(i)).name) return pass_type(RenderPass(i));
     if (name == "Z") return PassType::Depth;  // Blender < 2.92 name of the depth pass
     throw py::value_error("pass_pixels: unknown pass '" + name +
                           "' (expected 'Combined', 'Depth', 'Normal', 'Error', 'BVH Visits', 'SIMD Utilisation', "
-                          "'Denoising Albedo', 'Denoising Normal' or 'Noisy Image')");
+                          "'Denoising Albedo', 'Denoising Normal', 'Noisy Image' or a Cycles pass such as 'DiffDir')");
 }
 
 // A ratio, or None when the denominator is 0 (nothing measured is not a measured 0).
@@ -268,8 +271,9 @@ public:
         if (running())
             throw std::runtime_error("Renderer.pass_pixels: an asynchronous render is running; use snapshot() "
                                      "or wait() first");
-        const PassType type = pass_from_name(name);
         const Film& film = renderer_->film();
+        if (name.rfind("Crypto", 0) == 0) return cryptomatte_pixels(film, name, flip_y);
+        const PassType type = pass_from_name(name);
         const py::ssize_t w = film.width(), h = film.height(), c = pass_info(type).channels;
         py::array_t<float> out({w * h, c});
         float* data = out.mutable_data();
@@ -283,6 +287,27 @@ public:
         if (type == PassType::Depth)
             std::replace_if(data, data + w * h * c, [](float v) { return !std::isfinite(v); }, kBlenderNoDepth);
         return out;
+    }
+
+    // "CryptoObject00" ...: layer 0.. of a Cryptomatte type, RGBA.
+    static py::array_t<float> cryptomatte_pixels(const Film& film, const std::string& name, bool flip_y) {
+        for (int t = 0; t < kCryptoTypeCount; ++t) {
+            const std::string prefix = crypto_pass_prefix(CryptoType(t));
+            if (name.size() != prefix.size() + 2 || name.rfind(prefix, 0) != 0 || !std::isdigit(name[prefix.size()]) ||
+                !std::isdigit(name[prefix.size() + 1]))
+                continue;
+            const int layer = std::stoi(name.substr(prefix.size()));
+            const py::ssize_t w = film.width(), h = film.height();
+            py::array_t<float> out({w * h, py::ssize_t(4)});
+            float* data = out.mutable_data();
+            film.resolve_cryptomatte(CryptoType(t), layer, data);
+            if (flip_y)
+                for (py::ssize_t y = 0; y < h / 2; ++y)
+                    std::swap_ranges(data + y * w * 4, data + (y + 1) * w * 4, data + (h - 1 - y) * w * 4);
+            return out;
+        }
+        throw py::value_error("pass_pixels: unknown pass '" + name + "' (Cryptomatte passes are CryptoObject00, "
+                              "CryptoMaterial01, ...)");
     }
 
     py::dict stats() const { return stats_dict(renderer_->stats()); }
@@ -410,7 +435,34 @@ private:
 std::unique_ptr<PyRenderer> make_renderer(std::shared_ptr<PyScene> scene, const py::object& settings,
                                           const py::kwargs& kwargs) {
     if (!scene) throw py::type_error("scene: expected a coherent Scene, got None");
-    return std::make_unique<PyRenderer>(std::move(scene), settings_from_python(settings, kwargs));
+    // passes=[names]: Cycles' render passes (film/passes.h), a set rather than a table row.
+    // cryptomatte=["object", "material", "asset"], cryptomatte_levels=N likewise.
+    py::kwargs rest;
+    PassMask passes = 0;
+    uint32_t crypto = 0;
+    int levels = RenderSettings{}.cryptomatte_levels;
+    for (const auto& item : kwargs) {
+        const std::string key = py::str(item.first).cast<std::string>();
+        if (key != "passes" && key != "cryptomatte" && key != "cryptomatte_levels") {
+            rest[item.first] = item.second;
+            continue;
+        }
+        try {
+            if (key == "cryptomatte_levels") levels = item.second.cast<int>();
+            else if (key == "cryptomatte") crypto = crypto_mask_from_names(item.second.cast<std::vector<std::string>>());
+            else passes = pass_mask_from_names(item.second.cast<std::vector<std::string>>());
+        } catch (const std::invalid_argument& e) {
+            throw py::value_error(key + ": " + e.what());
+        } catch (const py::cast_error&) {
+            throw py::type_error(key + (key == "cryptomatte_levels" ? ": expected an int" : ": expected a list of names"));
+        }
+    }
+    if (levels < 1 || levels > 16) throw py::value_error("cryptomatte_levels: expected 1 to 16");
+    RenderSettings rs = settings_from_python(settings, rest);
+    rs.passes = passes;
+    rs.cryptomatte = crypto;
+    rs.cryptomatte_levels = levels;
+    return std::make_unique<PyRenderer>(std::move(scene), rs);
 }
 
 }  // namespace

@@ -716,6 +716,49 @@ triangles are exactly the same; only the others and the top level over the
 instances are built. Returns {"reused": n, "built": m, "seconds": s}.)doc");
 }
 
+// What Cycles' data passes read besides geometry (film/passes.h).
+void set_data_passes(PyScene& s, const py::dict& object_pass_index, const std::vector<float>& material_pass_index,
+                     float mist_start, float mist_depth, float mist_falloff, float ao_distance,
+                     const std::vector<std::string>& crypto_object_names,
+                     const std::vector<std::string>& crypto_asset_names) {
+    s.check_mutable("set_data_passes");
+    if (!(mist_falloff > 0.0f) || !std::isfinite(mist_start) || !(mist_depth >= 0.0f) || !std::isfinite(ao_distance))
+        throw py::value_error("set_data_passes: mist_falloff must be > 0, mist_depth >= 0, the others finite");
+    DataPassInputs& d = s.scene.data_passes;
+    d.object_pass_index.assign(s.scene.object_names.size(), 0.0f);
+    for (size_t i = 0; i < s.scene.object_names.size(); ++i) {
+        const py::str name(s.scene.object_names[i]);
+        if (object_pass_index.contains(name)) d.object_pass_index[i] = object_pass_index[name].cast<float>();
+    }
+    d.material_pass_index = material_pass_index;
+    d.mist_start = mist_start;
+    d.mist_depth = mist_depth;
+    d.mist_falloff = mist_falloff;
+    d.ao_distance = ao_distance;
+    d.crypto_object_names = crypto_object_names;
+    d.crypto_asset_names = crypto_asset_names;
+}
+
+// Scene.set_data_passes (film/passes.h).
+void bind_data_passes(py::class_<PyScene, std::shared_ptr<PyScene>>& cls) {
+    cls.def("set_data_passes", &set_data_passes, py::kw_only(), py::arg("object_pass_index") = py::dict(),
+            py::arg("material_pass_index") = std::vector<float>{}, py::arg("mist_start") = 5.0f,
+            py::arg("mist_depth") = 25.0f, py::arg("mist_falloff") = 2.0f, py::arg("ao_distance") = 0.0f,
+            py::arg("crypto_object_names") = std::vector<std::string>{},
+            py::arg("crypto_asset_names") = std::vector<std::string>{}, R"doc(
+What Cycles' data passes read: object_pass_index {object name: pass_index}
+(IndexOB; call after adding the objects), material_pass_index (IndexMA, per
+scene material index), the World's mist (start, depth, falloff exponent: 2
+quadratic, 1 linear, 0.5 inverse quadratic) and AO distance (AO pass; <= 0:
+the ao_distance setting's resolved length). Unset indices are 0.
+crypto_object_names / crypto_asset_names: per object (object_names order)
+the names Cryptomatte hashes (empty: the object's name).)doc");
+    cls.def_static("cryptomatte_hash", [](const std::string& name) { return murmur_hash3(name); }, py::arg("name"),
+                   "Cycles' Cryptomatte hash of a name (MurmurHash3_x86_32, seed 0).");
+    cls.def_static("cryptomatte_manifest", &cryptomatte_manifest, py::arg("names"),
+                   "The Cryptomatte manifest JSON {name: hash hex} of `names`.");
+}
+
 void bind_scene(py::module_& m) {
     py::class_<PyScene, std::shared_ptr<PyScene>> scene_class(m, "Scene", R"doc(
 A scene under construction: world-space triangles, shared meshes placed by
@@ -725,6 +768,7 @@ then pass it to Renderer (which calls finalize() if needed). Material 0 is the
 default grey diffuse.
 )doc");
     bind_instancing(scene_class);
+    bind_data_passes(scene_class);
     scene_class
         .def(py::init<>())
         .def("add_mesh", &add_mesh, py::arg("name"), py::arg("positions"), py::arg("indices"), py::arg("matrix"),

@@ -56,6 +56,7 @@ struct BsdfSample {
     bool delta = false;
     bool transparent = false;  // the Transparent lobe: the ray goes on unchanged (render/transparency.h)
     RayType type = RayType::Diffuse;
+    LobeKind lobe = LobeKind::Diffuse;  // the lobe sampled (light passes)
 };
 
 inline Vec3f sample_cosine_hemisphere(float u1, float u2) {
@@ -178,6 +179,27 @@ public:
         return f;
     }
 
+    // Light passes (render/pass_accumulation.h): eval()'s f split into
+    // diffuse lobes and reflection (reflection lobes, and glass towards wo's
+    // side); the rest is transmission.
+    void eval_split(const Vec3f& wi_world, Vec3f& sum, Vec3f& diffuse, Vec3f& glossy) const {
+        sum = diffuse = glossy = Vec3f(0.0f);
+        const Vec3f wi = to_local(wi_world);
+        const float ng_dot = dot(wi_world, ng_);
+        const bool reflect_ok = wi.z > 0.0f && ng_dot > 0.0f;
+        if (!reflect_ok && !(wi.z < 0.0f && ng_dot < 0.0f)) return;
+        for (int i = 0; i < count_; ++i) {
+            if (lobes_[i].sharp) continue;
+            float lobe_pdf = 0.0f;
+            const Vec3f v = eval_lobe(lobes_[i], wi, reflect_ok, lobe_pdf);
+            sum += v;
+            if (lobes_[i].kind == LobeKind::Diffuse) diffuse += v;
+            else if (lobes_[i].kind == LobeKind::Reflection || reflect_ok) glossy += v;
+        }
+    }
+    int lobe_count() const { return count_; }
+    const Lobe& lobe(int i) const { return lobes_[i]; }
+
     // u_lobe picks the lobe (and, rescaled, reflection vs refraction in glass).
     bool sample(float u_lobe, float u1, float u2, BsdfSample& s) const {
         if (count_ == 0) return false;
@@ -189,6 +211,7 @@ public:
         }
         const Lobe& l = lobes_[i];
         const float u_sub = std::clamp((u_lobe - cdf) / l.pick, 0.0f, 0.99999994f);
+        s.lobe = l.kind;
 
         Vec3f wi;
         switch (l.kind) {

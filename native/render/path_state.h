@@ -43,6 +43,7 @@
 #include "camera_rays.h"
 #include "instance_shading.h"
 #include "light_sampling.h"
+#include "pass_accumulation.h"
 #include "ray_offset.h"
 #include "render_modes.h"
 #include "shading_normal.h"
@@ -66,6 +67,7 @@ struct PathOutput {
     // Denoising features (denoise/denoising_features.h); 0 unless requested.
     Vec3f albedo{0.0f};
     Vec3f denoising_normal{0.0f};
+    PassSample passes;  // Cycles' passes (film/passes.h); 0 unless enabled
 };
 
 struct PathContext {
@@ -114,6 +116,7 @@ struct PathState {
     // scene (every ray of a path, as in distribution ray tracing).
     float time = 0.0f;
     DenoisingFeatureState features;
+    PassState pass;
 
     PathOutput out;
 };
@@ -186,6 +189,7 @@ inline void start_path(const PathContext& ctx, const PathSampler& ps, int px, in
     s = PathState{};
     if (ctx.motion || (ctx.instances && ctx.instances->has_motion())) s.time = ps.get(D::kTime);
     s.features.pending = rs.denoising_features();
+    s.pass.mask = rs.passes;
     s.ray = generate_camera_ray<kDepthOfField>(ctx.scene->camera, fx, fy, rs.width, rs.height, lens_u, lens_v).ray;
     s.type = RayType::Camera;
 }
@@ -364,11 +368,14 @@ COHERENT_ALWAYS_INLINE const Material& material_at(const PathContext& ctx, const
 // Analytic lights are invisible to camera rays (measured in Cycles) and
 // transparent: every one in front of the surface (or of nothing) adds its emission.
 COHERENT_ALWAYS_INLINE void add_lights_passed(const PathContext& ctx, PathState& s, bool found, const Hit& hit) {
-    if (s.bounce > 0)
-        s.out.radiance += clamp_contribution(
+    if (s.bounce > 0) {
+        const Vec3f c = clamp_contribution(
             s.throughput * ctx.lights->hit_lights(s.ray.o, s.ray.d, found ? hit.t : s.ray.tmax, s.prev_pdf,
                                                   s.transparent_bounce > 0 ? s.ray.tmin : 0.0f),
             s.bounce - 1, *ctx.settings);
+        s.out.radiance += c;
+        if (s.pass.mask) passes::add_hit_light(s.pass, s.out.passes, c, s.bounce, false);
+    }
 }
 
 // s.ray left the scene.
@@ -389,9 +396,14 @@ COHERENT_ALWAYS_INLINE void shade_miss(const PathContext& ctx, PathState& s) {
             // Throughput 1 (exactly) unless transparent surfaces were passed.
             s.out.radiance += clamp_contribution(s.throughput * ctx.lights->world_radiance(s.ray.d), -1, rs);
         }
+        // Env holds the world also under a transparent film, as in Cycles.
+        if (s.pass.mask && rs.integrator != Integrator::AmbientOcclusion)
+            s.out.passes.add(RenderPass::Environment, clamp_contribution(ctx.lights->world_radiance(s.ray.d), -1, rs));
     } else if constexpr (kLights) {
-        s.out.radiance += clamp_contribution(
+        const Vec3f c = clamp_contribution(
             s.throughput * ctx.lights->escaped(s.ray.d, s.prev_n, s.prev_transmissive, s.prev_pdf), s.bounce - 1, rs);
+        s.out.radiance += c;
+        if (s.pass.mask) passes::add_hit_light(s.pass, s.out.passes, c, s.bounce, true);
     }
 }
 
@@ -413,7 +425,9 @@ COHERENT_ALWAYS_INLINE void add_emission(const PathContext& ctx, PathState& s, c
     if constexpr (kLights) {
         if (s.prev_pdf > 0.0f) w = power_heuristic(s.prev_pdf, ctx.lights->triangle_pdf(sp.tri, s.ray.o, sp.p, sp.ng));
     }
-    s.out.radiance += clamp_contribution(s.throughput * mat.emission * w, s.bounce - 1, *ctx.settings);
+    const Vec3f c = clamp_contribution(s.throughput * mat.emission * w, s.bounce - 1, *ctx.settings);
+    s.out.radiance += c;
+    if (s.pass.mask) passes::add_hit_light(s.pass, s.out.passes, c, s.bounce, false);
 }
 
 // The shadow ray from sp towards light sample ls.
@@ -447,11 +461,12 @@ COHERENT_ALWAYS_INLINE bool closest_hit(const PathContext& ctx, const PathState&
 }
 
 // The transparent colour of the surface r met at `hit` (black: opaque).
-COHERENT_ALWAYS_INLINE Vec3f transparency_at(const Scene& scene, const PathState& s, const Ray& r, const Hit& hit) {
-    SurfacePoint sp = surface_point(scene, r, s.time, hit);
-    if (!scene.materials[sp.material].has_closure(ClosureKind::Transparent)) return Vec3f(0.0f);
+COHERENT_ALWAYS_INLINE Vec3f transparency_at(const PathContext& ctx, const PathState& s, const Ray& r,
+                                             const Hit& hit) {
+    SurfacePoint sp = surface_point(*ctx.scene, r, s.time, hit);
+    if (!ctx.scene->materials[sp.material].has_closure(ClosureKind::Transparent)) return Vec3f(0.0f);
     std::optional<Material> scratch;
-    return material_transparency(material_at(scene, hit, sp, scratch));
+    return material_transparency(material_at(ctx, s, hit, sp, scratch));
 }
 
 // Scenes with transparent surfaces: the queued shadow ray resolved here, in
@@ -474,10 +489,11 @@ COHERENT_ALWAYS_INLINE Vec3f transparency_at(const Scene& scene, const PathState
                 t_hit = hit.t;
                 return true;
             },
-            [&](const Ray& ray) { return transparency_at(*ctx.scene, s, ray, hit); });
+            [&](const Ray& ray) { return transparency_at(ctx, s, ray, hit); });
         if (is_black(t)) return;
     }
     s.out.radiance += s.shadow_contribution * t;
+    if (s.pass.mask) passes::add_shadow(s.pass, s.out.passes, s.shadow_contribution * t);
 }
 
 // Next-event estimation: samples a light and queues the shadow ray with the
@@ -498,6 +514,7 @@ COHERENT_ALWAYS_INLINE void queue_shadow_ray(const PathContext& ctx, const PathS
     const float w = ls.delta ? 1.0f : power_heuristic(ls.pdf, bsdf_pdf);
     s.shadow_contribution = clamp_contribution(s.throughput * f * ls.li * (w / ls.pdf), s.bounce, *ctx.settings);
     s.has_shadow = true;
+    if (s.pass.mask) passes::queue_shadow(s.pass, bsdf, ls.wi, s.bounce);
     if (ctx.scene->features.transparent) trace_transparent_shadow(ctx, s);
 }
 
@@ -574,6 +591,7 @@ COHERENT_ALWAYS_INLINE void sample_next_ray(const PathContext& ctx, const PathSa
     }
     s.throughput *= bs.weight;
     if (is_black(s.throughput) || !is_finite(s.throughput)) return;
+    if (s.pass.mask && s.bounce == 0) passes::first_bounce(s.pass, bsdf, bs);
 
     count_bounce(*ctx.settings, s, bs);
     // A last ray is traced only for the emission it may hit.
@@ -587,6 +605,21 @@ COHERENT_ALWAYS_INLINE void sample_next_ray(const PathContext& ctx, const PathSa
     s.ray.tmax = kInf;
     s.type = bs.type;
     s.alive = true;
+}
+
+// Cycles' data and Col passes at the camera's first hit; the AO pass's own
+// ray is traced here, one at a time, whatever the driver.
+inline void record_first_hit_passes(const PathContext& ctx, const PathSampler& ps, PathState& s, const Hit& hit,
+                                    const SurfacePoint& sp, const Bsdf& bsdf) {
+    using D = PathDims;
+    const float ao_distance = ctx.scene->data_passes.ao_distance > 0.0f ? ctx.scene->data_passes.ao_distance
+                                                                         : ctx.ao_distance;
+    const passes::FirstHit h{ctx.scene, &hit, sp.material, sp.p, sp.p_error, sp.n, sp.ng_f, dot(sp.n, sp.wo)};
+    passes::record_first_hit(s.pass.mask, s.out.passes, h, bsdf, ps.get(D::bounce(0, D::kBsdfU)),
+                             ps.get(D::bounce(0, D::kBsdfV)), ao_distance, [&](const Ray& r) {
+                                 return ctx.bvh->occluded(r) || instance_occluded(ctx, s, r) ||
+                                        motion_occluded(ctx, s, r);
+                             });
 }
 
 }  // namespace shading
@@ -633,6 +666,7 @@ inline void shade_hit(const PathContext& ctx, const PathSampler& ps, PathState& 
 
     const bool perturbed = sp.n.x != interpolated_n.x || sp.n.y != interpolated_n.y || sp.n.z != interpolated_n.z;
     const Bsdf bsdf(mat, sp.n, sp.ng_f, sp.wo, sp.front, kGlass, perturbed ? &interpolated_n : nullptr);
+    if (s.pass.mask && s.bounce == 0) record_first_hit_passes(ctx, ps, s, hit, sp, bsdf);
     if (bsdf.empty()) return;
     if constexpr (kLights) queue_shadow_ray(ctx, ps, s, bsdf, sp);
     if (!survive_roulette(ctx, ps, s)) return;
@@ -656,6 +690,7 @@ COHERENT_ALWAYS_INLINE Ray occlusion_ray(const PathContext& ctx, const PathSampl
 COHERENT_ALWAYS_INLINE void resolve_occlusion(PathState& s, int unoccluded) {
     if (s.has_shadow) {
         if (unoccluded > 0) s.out.radiance += s.shadow_contribution;
+        if (unoccluded > 0 && s.pass.mask) passes::add_shadow(s.pass, s.out.passes, s.shadow_contribution);
         s.has_shadow = false;
         return;
     }

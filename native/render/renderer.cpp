@@ -45,6 +45,7 @@ struct TileJob {
     int film_width;
     bool heatmaps;
     bool denoising_features;
+    bool passes;  // Cycles' passes (film/passes.h) are enabled
     int packet_width, packet_height;  // packet traversal: pixels per packet
     PacketAssembly assembly;
     struct WavefrontPool* wavefront;  // wavefront traversal: per-thread pipelines
@@ -67,7 +68,17 @@ struct TileJob {
             film->add_denoising_features(x - border_x0, y - border_y0, ok ? o.albedo : Vec3f(0.0f),
                                          ok ? o.denoising_normal : Vec3f(0.0f), sample);
         }
+        if (passes) add_passes(x, y, o.passes, st);
         ++st.samples;
+    }
+    // A non-finite pass value is dropped (counted) without dropping the sample.
+    void add_passes(int x, int y, const PassSample& values, RenderStats& st) const {
+        for (float v : values.v)
+            if (!std::isfinite(v)) {
+                ++st.nonfinite_samples;
+                return;
+            }
+        film->add_passes(x - border_x0, y - border_y0, values, sample);
     }
 };
 
@@ -337,6 +348,11 @@ Renderer::Renderer(const Scene& scene, const RenderSettings& settings, std::shar
     m.estimate_bytes = estimate.total();
     m.limit_bytes = limit.bytes;
     if (settings_.denoising_features()) film_.enable_denoising_features();
+    film_.enable_passes(PassMask(settings_.passes));
+    if (settings_.cryptomatte) {
+        film_.enable_cryptomatte(settings_.cryptomatte, settings_.cryptomatte_levels);
+        settings_.passes |= kCryptomatteIds;  // paths record their ids
+    }
 }
 
 Renderer::~Renderer() = default;
@@ -395,6 +411,7 @@ TileJob pass_job(const PathContext& ctx, const ImageSampler& sampler, Film& film
     job.film_width = rs.border_width();
     job.heatmaps = rs.heatmaps;
     job.denoising_features = rs.denoising_features();
+    job.passes = rs.passes != 0;
     job.packet_width = rs.packet_width;
     job.packet_height = rs.packet_height;
     job.assembly = rs.assembly;

@@ -115,6 +115,15 @@ struct RenderSettings {
     bool denoising_data = false;
     bool denoising_features() const { return denoise || denoising_data; }
 
+    // Cycles' render passes to accumulate (film/passes.h PassMask; 0 = none,
+    // which costs nothing). Not a table row: a set of names, given as
+    // Renderer(passes=[...]) in Python and --passes in the CLI.
+    uint32_t passes = 0;
+    // Cryptomatte (film/cryptomatte.h): a bit per CryptoType, and the levels
+    // (ranked ids per pixel, Blender's pass_cryptomatte_depth).
+    uint32_t cryptomatte = 0;
+    int cryptomatte_levels = 6;
+
     bool transparent_film = false;      // Film > Transparent: world seen directly gives alpha 0
     bool force_all_features = false;    // ignore SceneFeatures specialisation (benchmarks)
     int tile_size = 32;

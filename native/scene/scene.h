@@ -56,6 +56,21 @@ struct MeshInput {
     MeshShadingInput shading;  // UVs, tangents, texture space: read only where Scene::shading wants them
 };
 
+// What Cycles' data passes (film/passes.h) read besides the geometry:
+// pass_index per object (parallel to Scene::object_names) and per material
+// (parallel to Scene::materials), missing entries 0; the World's mist
+// (falloff exponent 2 quadratic, 1 linear, 0.5 inverse quadratic) and AO
+// distance (<= 0: the ao_distance setting's resolved length).
+struct DataPassInputs {
+    std::vector<float> object_pass_index, material_pass_index;
+    float mist_start = 5.0f, mist_depth = 25.0f, mist_falloff = 2.0f;
+    float ao_distance = 0.0f;
+    // Cryptomatte names per object (empty entries or vectors: the object's
+    // name): the object as Blender names it (an instance's own object) and
+    // its asset (the top-level parent).
+    std::vector<std::string> crypto_object_names, crypto_asset_names;
+};
+
 struct Scene {
     // --- geometry (world space), triangle i uses vertices 3i, 3i+1, 3i+2 ---
     std::vector<Vec3f> vertices;        // 3 per triangle (unindexed: simplest for BVH leaves and for validation)
@@ -84,6 +99,8 @@ struct Scene {
     Camera camera;
     // What shader programs read (UVs, tangents, object spaces) and their images.
     SceneShading shading;
+
+    DataPassInputs data_passes;
 
     DropReport dropped;
 

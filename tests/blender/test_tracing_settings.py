@@ -195,7 +195,7 @@ def test_adaptive_panel(coherent_addon, props):
 
 def test_passes_panel_has_the_heatmap_toggles(coherent_addon):
     from coherent import ui
-    shown = draw_panel(ui.VIEWLAYER_PT_coherent_passes, bpy.context.scene)
+    shown = draw_panel(ui.VIEWLAYER_PT_coherent_passes_data, bpy.context.scene)
     assert shown["use_pass_bvh_visits"] and shown["use_pass_simd_utilisation"] and shown["use_pass_error"]
 
 

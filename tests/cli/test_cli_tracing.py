@@ -48,7 +48,7 @@ def test_every_setting_is_an_option_and_a_report_key(cli, cornell, tmp_path):
     key of the report's settings block with the same name, and vice versa."""
     help_text = run(cli, "render", "--help").stdout
     options = set(re.findall(r"^  (--[a-z0-9-]+)", help_text, re.M))
-    cli_only = {"--output", "--res", "--convergence", "--json", "--help"}
+    cli_only = {"--output", "--res", "--convergence", "--json", "--help", "--passes"}
     assert cli_only <= options
     _, stats, _ = render_json(cli, cornell, tmp_path, res=8, spp=1)
     keys = {("--all-features" if k == "force_all_features" else "--" + k.replace("_", "-")) for k in stats["settings"]}
