@@ -4,6 +4,8 @@
 #include <algorithm>
 #include <cmath>
 
+#include "../shader/sky_model.h"
+
 namespace coherent {
 
 namespace {
@@ -88,6 +90,7 @@ EnvironmentSampler::EnvironmentSampler(const EnvironmentMap& map) {
 }
 
 Vec3f EnvironmentSampler::eval(const Vec3f& d) const {
+    if (map_->sky) return map_->sky->eval(map_->to_map(d));
     const Vec2f uv = direction_to_equirect(map_->to_map(d));
     const int w = map_->width, h = map_->height;
     const float x = uv.x * float(w) - 0.5f, y = uv.y * float(h) - 0.5f;
