@@ -69,7 +69,7 @@ std::shared_ptr<SkyTexture> unpack(const py::handle& obj) {
     if (!a || a.ndim() != 1 || size_t(a.shape(0)) < kSkyParamFloats)
         throw py::value_error("sky: expected the 1-D float array sky_texture() returns");
     auto sky = std::make_shared<SkyTexture>();
-    std::memcpy(&sky->params, a.data(), sizeof(SkyParams));
+    std::memcpy(static_cast<void*>(&sky->params), a.data(), sizeof(SkyParams));
     const SkyParams& p = sky->params;
     const bool known = p.type == 0.0f || p.type == 1.0f || p.type == 2.0f;
     const bool sized = p.image_width >= 0.0f && p.image_width <= 4096.0f && p.image_height >= 0.0f &&

@@ -27,6 +27,12 @@ struct EnvironmentMap {
     float rotation[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1};
     // Sky world: radiance(d) = sky(R d); rgb is its sampling bake.
     std::shared_ptr<const SkyTexture> sky;
+    // A sun disc sampled as a cone besides the map (render/world_sampling.h),
+    // in the map's frame: its axis, 1 - cos(angular radius), and its power
+    // (mean luminance x solid angle). sun_power == 0: none.
+    Vec3f sun_dir{0.0f, 0.0f, 1.0f};
+    float sun_one_minus_cos = 0.0f;
+    float sun_power = 0.0f;
 
     bool empty() const { return width <= 0 || height <= 0 || rgb.size() != size_t(width) * size_t(height) * 3; }
     Vec3f texel(int x, int y) const {

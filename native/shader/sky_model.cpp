@@ -175,7 +175,7 @@ Vec3f sun_disc_xyz(const SkyParams& p, float dir_elevation, float sun_dir_angle)
     return xyz * limb_darkening;
 }
 
-Vec3f nishita_sky(const SkyParams& p, const float* image, const Vec3f& dir) {
+Vec3f nishita_sky(const SkyParams& p, const float* image, const Vec3f& dir, bool disc) {
     const int w = int(p.image_width), h = int(p.image_height);
     const Vec2f s = spherical(dir);
     float x = (s.y + kPi + p.sun_rotation) / kTwoPi;
@@ -187,7 +187,7 @@ Vec3f nishita_sky(const SkyParams& p, const float* image, const Vec3f& dir) {
         // Cycles' precise_angle (Kahan's "Mangled Angles"): exact for tiny angles.
         const float sun_dir_angle = 2.0f * std::atan2(length(dir - sun), length(dir + sun));
         const float dir_elevation = kHalfPi - s.x;
-        if (p.angular_diameter >= 0.0f && sun_dir_angle < p.angular_diameter / 2.0f)
+        if (disc && p.angular_diameter >= 0.0f && sun_dir_angle < p.angular_diameter / 2.0f)
             return xyz_to_rgb_clamped(sun_disc_xyz(p, dir_elevation, sun_dir_angle));
         // The image's rows are spaced by the square of the elevation.
         const float y = std::sqrt(std::max(dir_elevation / kHalfPi, 0.0f));
@@ -200,8 +200,8 @@ Vec3f nishita_sky(const SkyParams& p, const float* image, const Vec3f& dir) {
     return xyz_to_rgb_clamped(image_lookup(image, w, h, x, -0.5f) * fade);
 }
 
-Vec3f eval_sky(const SkyParams& p, const float* image, const Vec3f& dir) {
-    return SkyType(int(p.type)) == SkyType::Nishita ? nishita_sky(p, image, dir) : analytic_sky(p, dir);
+Vec3f eval_sky(const SkyParams& p, const float* image, const Vec3f& dir, bool disc = true) {
+    return SkyType(int(p.type)) == SkyType::Nishita ? nishita_sky(p, image, dir, disc) : analytic_sky(p, dir);
 }
 
 }  // namespace
@@ -219,7 +219,7 @@ SkyTexture precompute_sky(const SkyInputs& in) {
     return sky;
 }
 
-Vec3f SkyTexture::eval(const Vec3f& dir) const { return eval_sky(params, image.data(), dir); }
+Vec3f SkyTexture::eval(const Vec3f& dir, bool sun_disc) const { return eval_sky(params, image.data(), dir, sun_disc); }
 
 std::vector<float> pack(const SkyTexture& sky) {
     std::vector<float> out(kSkyParamFloats + sky.image.size());
@@ -230,13 +230,13 @@ std::vector<float> pack(const SkyTexture& sky) {
 
 size_t packed_sky_floats(const float* packed) {
     SkyParams p;
-    std::memcpy(&p, packed, sizeof(SkyParams));
+    std::memcpy(static_cast<void*>(&p), packed, sizeof(SkyParams));
     return kSkyParamFloats + size_t(p.image_width) * size_t(p.image_height) * 3;
 }
 
 Vec3f eval_packed_sky(const float* packed, const Vec3f& dir) {
     SkyParams p;
-    std::memcpy(&p, packed, sizeof(SkyParams));
+    std::memcpy(static_cast<void*>(&p), packed, sizeof(SkyParams));
     return eval_sky(p, packed + kSkyParamFloats, dir);
 }
 

@@ -72,7 +72,8 @@ struct SkyTexture {
     SkyType type() const { return SkyType(int(params.type)); }
     // Radiance (linear RGB) towards `dir` (need not be unit length, as in
     // Cycles, where a material's Generated coordinate goes in unnormalised).
-    Vec3f eval(const Vec3f& dir) const;
+    // Without the sun disc, the Nishita sky shows the sky behind it.
+    Vec3f eval(const Vec3f& dir, bool sun_disc = true) const;
 };
 
 SkyTexture precompute_sky(const SkyInputs& inputs);

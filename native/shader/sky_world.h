@@ -2,12 +2,11 @@
 // is exactly the sky's (EnvironmentMap::sky, evaluated per direction like
 // Cycles' background shader), while an equirectangular bake of it gives the
 // importance-sampling distribution (render/world_sampling.h), just as for an
-// HDRI. The bake resolves the sun disc: texels near it average a grid of
-// samples instead of taking their centre, so a disc smaller than a texel
-// still carries its power into the distribution (and the sampler's 3x3
-// dilation then covers the disc), which is what makes a sky-lit scene
-// converge like an HDRI-lit one. The pdf stays the bake's, so estimates are
-// unbiased whatever the bake's error.
+// HDRI. The Nishita sun disc, smaller than a texel's neighbourhood, is left
+// out of the bake and sampled as a cone instead (EnvironmentMap::sun_*, with
+// its power measured over the disc), so a sky-lit scene converges like an
+// HDRI-lit one. The pdf is the sampler's own, so estimates are unbiased
+// whatever the bake's error.
 #pragma once
 
 #include <memory>
