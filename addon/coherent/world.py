@@ -122,7 +122,9 @@ def _sky(world, node, strength, warnings):
     if not _default_texture_mapping(node.texture_mapping):
         warnings.append(f"World '{world.name}': node '{node.name}': the texture's own mapping (Texture Mapping "
                         f"panel) is not supported: ignored (use a Mapping node)")
-    rotation = _vector_rotation(world, node, warnings)
+    # Blender disables the Vector input of a Nishita sky with its sun disc, and
+    # Cycles ignores links into disabled sockets: the sky is then unrotated.
+    rotation = _vector_rotation(world, node, warnings) if node.inputs["Vector"].enabled else _IDENTITY
     sky = sky_arguments(node)
     color = (strength, strength, strength)
     key = ("sky", color, tuple(sorted(sky.items())), rotation)
@@ -142,7 +144,7 @@ def _vector_rotation(world, env_node, warnings):
                             f"(Generated is): using the view direction")
         return _IDENTITY
     if node.bl_idname != "ShaderNodeMapping":
-        warnings.append(f"{where} ({node.bl_idname}) drives the Environment Texture's vector and is not "
+        warnings.append(f"{where} ({node.bl_idname}) drives the texture's Vector and is not "
                         f"supported: using the view direction")
         return _IDENTITY
     inputs = node.inputs

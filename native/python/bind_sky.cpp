@@ -68,16 +68,10 @@ std::shared_ptr<SkyTexture> unpack(const py::handle& obj) {
     FloatArray a = FloatArray::ensure(obj);
     if (!a || a.ndim() != 1 || size_t(a.shape(0)) < kSkyParamFloats)
         throw py::value_error("sky: expected the 1-D float array sky_texture() returns");
+    if (!packed_sky_valid(a.data(), size_t(a.shape(0))) || packed_sky_floats(a.data()) != size_t(a.shape(0)))
+        throw py::value_error("sky: not an array sky_texture() returned (bad header or length)");
     auto sky = std::make_shared<SkyTexture>();
     std::memcpy(static_cast<void*>(&sky->params), a.data(), sizeof(SkyParams));
-    const SkyParams& p = sky->params;
-    const bool known = p.type == 0.0f || p.type == 1.0f || p.type == 2.0f;
-    const bool sized = p.image_width >= 0.0f && p.image_width <= 4096.0f && p.image_height >= 0.0f &&
-                       p.image_height <= 4096.0f && p.image_width == std::floor(p.image_width) &&
-                       p.image_height == std::floor(p.image_height) &&
-                       (sky->type() != SkyType::Nishita || (p.image_width >= 1.0f && p.image_height >= 1.0f));
-    if (!known || !sized || packed_sky_floats(a.data()) != size_t(a.shape(0)))
-        throw py::value_error("sky: not an array sky_texture() returned (bad header or length)");
     sky->image.assign(a.data() + kSkyParamFloats, a.data() + a.shape(0));
     return sky;
 }

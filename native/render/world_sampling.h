@@ -38,7 +38,8 @@ public:
 
     // Nothing to sample: no map, or one that is black everywhere.
     bool empty() const { return map_ == nullptr; }
-    // map(d) for a world-space unit direction, bilinear (without strength).
+    // map(d) for a world-space unit direction, bilinear (without strength);
+    // for a sky world (EnvironmentMap::sky) the sky itself, exactly.
     Vec3f eval(const Vec3f& d) const;
     // A world-space unit direction with its solid-angle pdf; false for a
     // sample that landed where the pdf is 0 (a pole).

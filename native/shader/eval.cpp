@@ -10,6 +10,7 @@
 #include "node_color.h"
 #include "node_math.h"
 #include "program.h"
+#include "sky_model.h"
 #include "textures.h"
 
 namespace coherent {
@@ -192,6 +193,7 @@ void run(const Scene& scene, const ShaderProgram& prog, const ShadingGeometry& g
                 r.set(in.out[0], normal_map(scene, g, NormalMapSpace(in.mode), r.f(in.in[0]), r.v(in.in[1])));
                 break;
             case ShaderOp::Clamp: r.set(in.out[0], svm_clamp(in.mode, r.f(in.in[0]), r.f(in.in[1]), r.f(in.in[2]))); break;
+            case ShaderOp::SkyTexture: r.set(in.out[0], eval_packed_sky(prog.data.data() + in.data, r.v(in.in[0]))); break;
             case ShaderOp::Count: break;
         }
     }

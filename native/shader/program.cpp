@@ -4,6 +4,7 @@
 
 #include "node_color.h"
 #include "node_math.h"
+#include "sky_model.h"
 
 namespace coherent {
 
@@ -32,6 +33,7 @@ OpShape shape_of(const ShaderInstr& in) {
         case ShaderOp::TexCoord: return {{0, 0, 0, 0}, {3, 0}};
         case ShaderOp::NormalMap: return {{1, 3, 0, 0}, {3, 0}};
         case ShaderOp::Clamp: return {{1, 1, 1, 0}, {1, 0}};
+        case ShaderOp::SkyTexture: return {{3, 0, 0, 0}, {3, 0}};
         case ShaderOp::Count: break;
     }
     return {{0, 0, 0, 0}, {0, 0}};
@@ -77,6 +79,9 @@ std::string ShaderProgram::validate(size_t image_count, size_t uv_layer_count) c
             return where(i) + "image " + std::to_string(in.data) + " does not exist";
         if (in.op == ShaderOp::TexCoord && in.mode == uint16_t(TexCoordKind::Uv) && in.data >= uv_layer_count)
             return where(i) + "UV layer " + std::to_string(in.data) + " does not exist";
+        if (in.op == ShaderOp::SkyTexture &&
+            (in.data > data.size() || !packed_sky_valid(data.data() + in.data, data.size() - in.data)))
+            return where(i) + "sky texture data missing or malformed";
     }
     for (size_t i = 0; i < outputs.size(); ++i) {
         const ShaderOutput& o = outputs[i];

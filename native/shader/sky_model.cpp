@@ -234,6 +234,17 @@ size_t packed_sky_floats(const float* packed) {
     return kSkyParamFloats + size_t(p.image_width) * size_t(p.image_height) * 3;
 }
 
+bool packed_sky_valid(const float* packed, size_t available) {
+    if (available < kSkyParamFloats) return false;
+    SkyParams p;
+    std::memcpy(static_cast<void*>(&p), packed, sizeof(SkyParams));
+    const bool known = p.type == 0.0f || p.type == 1.0f || p.type == 2.0f;
+    auto dimension = [](float v) { return v >= 0.0f && v <= 4096.0f && v == std::floor(v); };
+    if (!known || !dimension(p.image_width) || !dimension(p.image_height)) return false;
+    if (SkyType(int(p.type)) == SkyType::Nishita && (p.image_width < 1.0f || p.image_height < 1.0f)) return false;
+    return packed_sky_floats(packed) <= available;
+}
+
 Vec3f eval_packed_sky(const float* packed, const Vec3f& dir) {
     SkyParams p;
     std::memcpy(static_cast<void*>(&p), packed, sizeof(SkyParams));

@@ -82,6 +82,9 @@ SkyTexture precompute_sky(const SkyInputs& inputs);
 // its data table, and its evaluation in place.
 std::vector<float> pack(const SkyTexture& sky);
 size_t packed_sky_floats(const float* packed);  // total length, read from the header
+// Whether `available` floats at `packed` hold a whole packed sky with a
+// sound header (what a shader program or Python hands in is checked so).
+bool packed_sky_valid(const float* packed, size_t available);
 Vec3f eval_packed_sky(const float* packed, const Vec3f& dir);
 
 }  // namespace coherent

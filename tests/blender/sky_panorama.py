@@ -24,9 +24,12 @@ CASES = {
     "nishita_low_sun": dict(sky_type="NISHITA", sun_elevation=math.radians(1.0), sun_rotation=math.radians(400.0),
                             sun_size=math.radians(4.0)),
 }
-# A Mapping node in front of this case's texture (rotation in degrees).
-MAPPING_ROTATION = {"hosek_wilkie": (0.0, 0.0, 30.0)}
+# A Mapping node in front of this case's texture (rotation in degrees). Blender
+# disables the Vector input of a Nishita sky with a sun disc, and Cycles then
+# ignores the link: the second case checks that we do too.
+MAPPING_ROTATION = {"hosek_wilkie": (0.0, 0.0, 30.0), "nishita_low_sun": (20.0, 0.0, 50.0)}
 WIDTH, HEIGHT = 256, 128
+MATERIAL_SIZE = 96
 
 
 def make_world(bpy, case):
@@ -45,6 +48,44 @@ def make_world(bpy, case):
         links.new(mapping.outputs["Vector"], sky.inputs["Vector"])
     links.new(sky.outputs["Color"], nodes["Background"].inputs["Color"])
     return world
+
+
+def make_material_scene(bpy):
+    """The current scene becomes a sphere whose emission is the Nishita case's sky (a Sky Texture in a
+    material), seen by an orthographic camera, black world. Its Vector input is disabled (sun disc), so the
+    link from the normals is ignored and the sky reads the Generated coordinates, unnormalised, as in Cycles."""
+    scene = bpy.context.scene
+    for obj in list(scene.objects):
+        bpy.data.objects.remove(obj)
+    scene.world = bpy.data.worlds.new("Black")
+    scene.world.use_nodes = True
+    scene.world.node_tree.nodes["Background"].inputs["Strength"].default_value = 0.0
+    bpy.ops.mesh.primitive_uv_sphere_add(segments=64, ring_count=32, radius=1.0)
+    sphere = bpy.context.active_object
+    bpy.ops.object.shade_smooth()
+    mat = bpy.data.materials.new("SkyEmission")
+    mat.use_nodes = True
+    nodes, links = mat.node_tree.nodes, mat.node_tree.links
+    nodes.clear()
+    sky = nodes.new("ShaderNodeTexSky")
+    for key, value in CASES["nishita"].items():
+        setattr(sky, key, value)
+    emission = nodes.new("ShaderNodeEmission")
+    links.new(nodes.new("ShaderNodeTexCoord").outputs["Normal"], sky.inputs["Vector"])
+    links.new(sky.outputs["Color"], emission.inputs["Color"])
+    links.new(emission.outputs["Emission"], nodes.new("ShaderNodeOutputMaterial").inputs["Surface"])
+    sphere.data.materials.append(mat)
+    camera = bpy.data.cameras.new("Ortho")
+    camera.type = 'ORTHO'
+    camera.ortho_scale = 2.2
+    obj = bpy.data.objects.new("Ortho", camera)
+    obj.location = (0.0, -5.0, 0.0)
+    obj.rotation_euler = (math.pi / 2, 0.0, 0.0)
+    scene.collection.objects.link(obj)
+    scene.camera = obj
+    scene.render.resolution_x = scene.render.resolution_y = MATERIAL_SIZE
+    scene.view_settings.view_transform = 'Standard'
+    scene.view_settings.look = 'None'
 
 
 def direction_world(bpy):

@@ -35,6 +35,7 @@ from seeds import seeded
 REL_TOLERANCE, ABS_TOLERANCE = 1e-3, 1e-5
 SCENE_MEAN_TOLERANCE, SCENE_BLOCK_TOLERANCE = 0.02, 0.08
 
+MATERIAL_SAMPLES, MATERIAL_MEAN_TOLERANCE, MATERIAL_BLOCK_TOLERANCE = 64, 0.01, 0.03
 SCENE_SAMPLES, SCENE_PERCENT, SCENE_BOUNCES, SCENE_SEED = 64, 19, 3, seeded(5)  # 97^2 px, cropped to 96^2
 
 _PANORAMAS = {}
@@ -122,6 +123,29 @@ def test_sky_world_scene_matches_cycles(blender, blend_scenes, tmp_path):
     assert mean_c.min() > 0.05
     assert np.all(np.abs(ratio - 1.0) <= SCENE_MEAN_TOLERANCE), ratio
     assert block_error.max() <= SCENE_BLOCK_TOLERANCE, np.round(block_error.max(axis=-1), 3)
+
+
+def test_sky_texture_in_a_material_matches_cycles(blender, tmp_path):
+    """A Sky Texture in a material (Emission <- Sky over the object's normals), seen directly."""
+    setup = bh.python_expr(f"import sys; sys.path.insert(0, {str(bh.REPO_ROOT / 'tests' / 'blender')!r})",
+                           "import sky_panorama", "sky_panorama.make_material_scene(bpy)")
+    images = {}
+    for engine in ("CYCLES", bh.ENGINE_ID):
+        result = blender("--python-expr", setup, "--python",
+                         bh.REPO_ROOT / "tests" / "blender" / "render_for_agreement.py", "--", engine,
+                         MATERIAL_SAMPLES, 100, 0, tmp_path, SCENE_SEED, timeout=300)
+        assert result.returncode == 0, result.describe()
+        assert "not supported" not in result.stdout + result.stderr, result.describe()
+        images[engine] = read_rgb(tmp_path / f"{engine.lower()}_{SCENE_SEED}.exr")
+    cycles, ours = images["CYCLES"], images[bh.ENGINE_ID]
+    ratio = ours.mean(axis=(0, 1)) / cycles.mean(axis=(0, 1))
+    blocks_c = cycles.reshape(6, 16, 6, 16, 3).mean(axis=(1, 3))
+    blocks_o = ours.reshape(6, 16, 6, 16, 3).mean(axis=(1, 3))
+    lit = blocks_c.max(axis=-1) > 1e-3
+    block_error = np.abs(blocks_o - blocks_c)[lit] / blocks_c[lit]
+    print(f"sky material: mean ratio {np.round(ratio, 4)}, worst lit block {block_error.max():.4f}")
+    assert np.all(np.abs(ratio - 1.0) <= MATERIAL_MEAN_TOLERANCE), ratio
+    assert block_error.max() <= MATERIAL_BLOCK_TOLERANCE
 
 
 def test_sky_texture_rejects_bad_input(coherent_addon):
