@@ -6,11 +6,15 @@ scene.render.use_persistent_data on and off, as a farm worker renders it
 
 Run from the repository root after building (the add-on's _coherent module):
 
-    /usr/bin/python3 bench/persistent_data.py [--segments 512] [--size 128] [--samples 4] [--repeats 2]
+    /usr/bin/python3 bench/persistent_data.py [--scene move|deform] [--segments 512] [--size 128] [--samples 4]
+        [--repeats 2]
 
 Scene (built by this file run inside Blender): a smooth UV sphere of
 2 * SEGMENTS * (SEGMENTS - 1) triangles (523,264 for 512), a cube keyframed
-along x, a floor, a sun. Runs alternate on/off REPEATS times; for each frame
+along x, a floor, a sun. `--scene deform` adds what a character animation
+brings: an ico sphere of 5,120 triangles whose shape key is keyframed (its
+geometry changes every frame), and two linked duplicates of a UV sphere of
+SEGMENTS/2 segments (one shared mesh: a prototype with two instances). Runs alternate on/off REPEATS times; for each frame
 the table gives the engine's own split (export, BVH build or refit, render,
 from its summary lines) and the wall time between Blender's render_pre and
 render_post handlers. The medians over repeats are printed.
@@ -27,7 +31,25 @@ from pathlib import Path
 FRAMES = (1, 2, 3)
 
 
-def build_scene(segments, size, samples, persistent):
+def add_deforming_and_shared(segments):
+    """The deform scene's extra objects: a deforming ico sphere and a shared mesh placed twice."""
+    import bpy
+
+    bpy.ops.mesh.primitive_ico_sphere_add(subdivisions=4, radius=0.5, location=(1.8, 0.0, 0.6))
+    blob = bpy.context.active_object
+    blob.shape_key_add(name="Basis")
+    squash = blob.shape_key_add(name="Squash")
+    for point in squash.data:
+        point.co.z *= 0.5
+    for frame, value in ((1, 0.0), (3, 1.0)):
+        squash.value = value
+        squash.keyframe_insert("value", frame=frame)
+    bpy.ops.mesh.primitive_uv_sphere_add(segments=segments // 2, ring_count=segments // 2, radius=0.4,
+                                         location=(-2.0, 1.0, 0.4))
+    bpy.ops.object.duplicate_move_linked(TRANSFORM_OT_translate={"value": (0.0, 1.2, 0.0)})
+
+
+def build_scene(mode, segments, size, samples, persistent):
     """Inside Blender: the animation, and handlers that time every frame."""
     import bpy
 
@@ -42,6 +64,8 @@ def build_scene(segments, size, samples, persistent):
     cube.location.x = 1.5
     cube.keyframe_insert("location", frame=3)
     bpy.ops.mesh.primitive_plane_add(size=8.0)
+    if mode == "deform":
+        add_deforming_and_shared(segments)
     bpy.ops.object.light_add(type="SUN", rotation=(0.6, 0.3, 0.0))
     bpy.ops.object.camera_add(location=(0.0, -6.0, 3.0), rotation=(1.15, 0.0, 0.0))
     scene.camera = bpy.context.active_object
@@ -72,7 +96,7 @@ REUSE = re.compile(r"^Coherent: persistent data: (.*)$", re.MULTILINE)
 def run(blender_args, scripts, persistent, args):
     out = os.path.join(tempfile.gettempdir(), f"persist_bench_{persistent}_####")
     cmd = [*blender_args, "--python", __file__, "-o", out, "-s", "1", "-e", str(FRAMES[-1]), "-a", "--",
-           str(args.segments), str(args.size), str(args.samples), str(persistent)]
+           args.scene, str(args.segments), str(args.size), str(args.samples), str(persistent)]
     env = dict(os.environ, BLENDER_USER_SCRIPTS=str(scripts), BLENDER_USER_CONFIG=str(Path(scripts).parent / "config"))
     env.pop("PYTHONPATH", None)
     proc = subprocess.run(cmd, capture_output=True, text=True, env=env, cwd=tempfile.gettempdir())
@@ -94,6 +118,7 @@ def main():
     import blender_helpers as bh
 
     parser = argparse.ArgumentParser()
+    parser.add_argument("--scene", choices=("move", "deform"), default="move")
     parser.add_argument("--segments", type=int, default=512)
     parser.add_argument("--size", type=int, default=128)
     parser.add_argument("--samples", type=int, default=4)
@@ -106,7 +131,8 @@ def main():
         for persistent in (1, 0):
             runs[persistent].append(run(blender, scripts, persistent, args))
     triangles = 2 * args.segments * (args.segments - 1)
-    print(f"{triangles:,}-triangle static sphere + moving cube, {args.size}x{args.size}, {args.samples} spp, "
+    extra = " + deforming ico sphere + shared mesh placed twice" if args.scene == "deform" else ""
+    print(f"{triangles:,}-triangle static sphere + moving cube{extra}, {args.size}x{args.size}, {args.samples} spp, "
           f"medians of {args.repeats} runs each (seconds)")
     print("| persistent data | frame | wall | export | BVH | render | reuse (last run) |")
     print("|---|---|---|---|---|---|---|")
@@ -124,7 +150,7 @@ def main():
 
 if __name__ == "__main__":
     if "bpy" in sys.modules:  # run by Blender (--python): build the scene
-        segments, size, samples, persistent = sys.argv[sys.argv.index("--") + 1:][:4]
-        build_scene(int(segments), int(size), int(samples), persistent == "1")
+        mode, segments, size, samples, persistent = sys.argv[sys.argv.index("--") + 1:][:5]
+        build_scene(mode, int(segments), int(size), int(samples), persistent == "1")
     else:
         main()

@@ -192,6 +192,10 @@ class MeshCache:
         self.users = {}     # key -> set of original object pointers that rendered it
         self.sources = {}   # key -> original data pointer (0 if none)
         self.extracted = 0  # meshes extracted over the cache's lifetime
+        # Original objects whose geometry an update invalidated at least once:
+        # they tend to change again (deforming, animated modifiers), so a
+        # persistent-data export gives them BVHs of their own (persistent.py).
+        self.changed_objects = set()
 
     def __len__(self):
         return len(self.arrays)
@@ -212,12 +216,17 @@ class MeshCache:
 
     def invalidate_objects(self, object_pointers):
         """Drops what these (original) objects rendered; returns whether anything was dropped."""
-        return self._drop([k for k, users in self.users.items() if users & object_pointers])
+        return self._invalidate([k for k, users in self.users.items() if users & object_pointers])
 
     def invalidate_data(self, data_pointers):
         """Drops what was extracted from these (original or evaluated) datablocks."""
-        return self._drop([k for k in self.arrays
-                           if self.sources[k] in data_pointers or (k[0] == "MESH" and k[1] in data_pointers)])
+        return self._invalidate([k for k in self.arrays
+                                 if self.sources[k] in data_pointers or (k[0] == "MESH" and k[1] in data_pointers)])
+
+    def _invalidate(self, keys):
+        for k in keys:
+            self.changed_objects |= self.users[k]
+        return self._drop(keys)
 
     def retain(self, keys):
         """Drops every entry not in `keys` (deleted or hidden objects)."""
@@ -225,6 +234,7 @@ class MeshCache:
 
     def clear(self):
         self._drop(list(self.arrays))
+        self.changed_objects.clear()
 
     def _drop(self, keys):
         for k in keys:
@@ -252,11 +262,12 @@ class InstanceGroup:
     for those that stand still) once any placement moves.
     """
 
-    __slots__ = ("arrays", "mesh_key", "name", "slots", "material_ids", "matrices", "closes")
+    __slots__ = ("arrays", "mesh_key", "owner", "name", "slots", "material_ids", "matrices", "closes")
 
-    def __init__(self, arrays, mesh_key, name, slots, material_ids):
+    def __init__(self, arrays, mesh_key, owner, name, slots, material_ids):
         self.arrays = arrays
         self.mesh_key = mesh_key
+        self.owner = owner  # the original object's pointer
         self.name = name
         self.slots = slots
         self.material_ids = material_ids
@@ -293,7 +304,7 @@ class SceneExporter:
     """Converts one evaluated depsgraph into a native Scene."""
 
     def __init__(self, native, depsgraph, width, height, camera_override=None, need_camera=True, mesh_cache=None,
-                 motion=None):
+                 motion=None, separate_objects=frozenset()):
         self.native = native
         # Object motion blur: {motion.instance_key: (matrix_open, matrix_close)}
         # for the instances that move during the shutter (motion.py).
@@ -310,6 +321,11 @@ class SceneExporter:
         self.shading = None  # ShadingRequest of the materials, set by export()
         self.mesh_cache = mesh_cache if mesh_cache is not None else MeshCache()
         self.used_keys = set()  # mesh_cache keys this export rendered
+        self.extracted_keys = set()  # those it extracted (not found in the cache)
+        # Objects whose triangles go into a BVH of their own (a prototype)
+        # even when placed once, so that a change rebuilds only them.
+        self.separate_objects = separate_objects
+        self.flattened_keys = []  # mesh_cache key of each add_mesh, in order: the world-space triangles
         self._unsupported_types = set()
         # (original object, evaluated data) -> InstanceGroup, or None when it has no triangles
         self._groups = {}
@@ -393,6 +409,7 @@ class SceneExporter:
             finally:
                 ob.to_mesh_clear()
         self.mesh_cache.store(key, ob, arrays)
+        self.extracted_keys.add(key)
         if arrays is not None:
             self.result.meshes += 1
         return arrays
@@ -433,7 +450,7 @@ class SceneExporter:
             if inst is not None and inst.is_instance and inst.parent is not None and inst.parent.name != ob.name:
                 name = f"{inst.parent.name}/{ob.name}"
             slots, material_ids = self._material_binding(ob, arrays)
-            group = InstanceGroup(arrays, mesh_cache_key(ob), name, slots, material_ids)
+            group = InstanceGroup(arrays, mesh_cache_key(ob), key[0], name, slots, material_ids)
         self._groups[key] = group
         return group
 
@@ -454,12 +471,14 @@ class SceneExporter:
         self.result.scene.add_mesh(group.name, arrays.positions, arrays.indices, np.asarray(matrix, dtype=np.float32),
                                    normals=arrays.normals, material_ids=group.material_ids,
                                    material_slots=group.slots, matrix_close=matrix_close, **(arrays.shading or {}))
+        self.flattened_keys.append(group.mesh_key)
         self.result.instances += 1
 
     def _add_instance_groups(self):
         """Adds the queued placements: a mesh placed once as world-space
         triangles (as without instancing), else once as a prototype plus a
-        matrix per placement (linked duplicates too: several groups, one mesh)."""
+        matrix per placement (linked duplicates too: several groups, one mesh).
+        A separate object's mesh is a prototype even when placed once."""
         scene = self.result.scene
         placements = {}  # mesh_cache_key -> placements over every group
         for group in self._groups.values():
@@ -469,10 +488,7 @@ class SceneExporter:
         for group in self._groups.values():
             if group is None or not group.matrices:
                 continue
-            if placements[group.mesh_key] == 1 or any(m in self.materials.mesh_attribute_materials
-                                                      for m in group.slots):
-                # Prototypes carry no UVs or tangents yet: a mesh whose
-                # materials read them is placed as world-space copies.
+            if placements[group.mesh_key] == 1 and group.owner not in self.separate_objects:
                 for k, matrix in enumerate(group.matrices):
                     self._add_flattened(group, matrix, group.closes[k] if group.closes else None)
                 group.matrices = []
@@ -481,7 +497,7 @@ class SceneExporter:
             proto = prototypes.get(group.mesh_key)
             if proto is None:
                 proto = scene.add_prototype(group.name, arrays.positions, arrays.indices, normals=arrays.normals,
-                                            material_ids=arrays.material_index)
+                                            material_ids=arrays.material_index, **(arrays.shading or {}))
                 prototypes[group.mesh_key] = proto
             if proto >= 0:
                 closes = None if group.closes is None else group.matrix_array(group.closes)

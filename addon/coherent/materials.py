@@ -121,8 +121,6 @@ class MaterialConverter:
         self.uv_names = []
         self.tangent_uv = None  # UV map name the normal maps' tangents follow
         self.uses = set()
-        self._reads_mesh = set()  # original material pointers whose programs read mesh attributes
-        self.mesh_attribute_materials = set()  # native indices of those materials
 
     # -- public -------------------------------------------------------------
 
@@ -136,15 +134,11 @@ class MaterialConverter:
             args = self._converted.get(key)
             if args is None:
                 args = self.convert(material)
-                if args[3] is not None and self._builder.uses:
-                    self._reads_mesh.add(key)
             closures, weights, emission, program = args
             extra = {"program": program} if program is not None else {}
             index = self.scene.add_material(material.name, closures=closures, weights=weights, emission=emission,
                                             **extra)
             self._cache[key] = index
-            if key in self._reads_mesh:
-                self.mesh_attribute_materials.add(index)
         return index
 
     def fresh(self, warnings):
@@ -160,8 +154,6 @@ class MaterialConverter:
             key = material.original.as_pointer() if material.original is not None else material.as_pointer()
             if key not in self._converted:
                 self._converted[key] = self.convert(material)
-                if self._converted[key][3] is not None and self._builder.uses:
-                    self._reads_mesh.add(key)
         try:
             self.scene.set_shading_inputs(uv_names=list(self.uv_names), tangents="tangents" in self.uses,
                                           objects="objects" in self.uses)

@@ -20,6 +20,9 @@ from __future__ import annotations
 # Instruction opcodes: ShaderOp in native/shader/program.h, in order.
 OPS = ("MATH", "VECTOR_MATH", "MIX_COLOR", "MIX_FLOAT", "MIX_VECTOR", "MAPPING", "COLOR_RAMP", "INVERT",
        "RGB_TO_BW", "COMBINE", "CHECKER", "IMAGE_TEXTURE", "TEX_COORD", "NORMAL_MAP", "CLAMP",
+       # Procedural textures (the block at the end of this file)
+       "TEX_WHITE_NOISE", "TEX_NOISE", "TEX_VORONOI", "TEX_MUSGRAVE", "TEX_WAVE", "TEX_GRADIENT", "TEX_MAGIC",
+       "TEX_BRICK",
        "SKY_TEXTURE")  # Sky
 OP = {name: i for i, name in enumerate(OPS)}
 # Closure fields a program drives: ShaderField in program.h, in order.
@@ -226,7 +229,7 @@ class GraphCompiler:
     def _follow(self, socket):
         """(node, output socket) feeding `socket` across reroutes, muted nodes and group boundaries."""
         for _ in range(256):
-            link = next((l for l in socket.links if not l.is_muted and l.is_valid), None) if socket.is_linked else None
+            link = next((l for l in socket.links if _link_used(l)), None) if socket.is_linked else None
             if link is None:
                 return None
             node = link.from_node
@@ -299,6 +302,12 @@ class GraphCompiler:
             return self.input_value(inner, _width_of(out.type))
         finally:
             self._group_path = self._group_path[:-1]
+
+
+def _link_used(link):
+    """Cycles skips muted and invalid links, and links from or to a socket the node hides (unavailable)."""
+    return not link.is_muted and link.is_valid and getattr(link.from_socket, "enabled", True) and \
+        getattr(link.to_socket, "enabled", True)
 
 
 def _by_identifier(sockets, identifier):
@@ -546,3 +555,126 @@ _HANDLERS = {
     "ShaderNodeTexSky": _sky_texture,
     "ShaderNodeGroup": _group,
 }
+
+
+# -- procedural textures ----------------------------------------------------------------
+#
+# White Noise, Noise, Voronoi, Musgrave, Wave, Gradient, Magic and Brick
+# compile to one instruction each, evaluated natively with Blender 3.4
+# Cycles' hash and noise functions (native/shader/node_procedural.h). These
+# nodes have more sockets than an instruction has register slots, so each
+# instruction addresses its registers through a list it appends to the
+# program's data: inputs in the order of node_procedural.h's layouts, then
+# outputs (only the linked ones are computed, the others are marked unused).
+# A node whose inputs are all constant folds like any other.
+
+NO_REGISTER = 0xFFFF
+DIMENSIONS = {"1D": 1, "2D": 2, "3D": 3, "4D": 4}
+VORONOI_FEATURES = ("F1", "F2", "SMOOTH_F1", "DISTANCE_TO_EDGE", "N_SPHERE_RADIUS")
+VORONOI_METRICS = ("EUCLIDEAN", "MANHATTAN", "CHEBYCHEV", "MINKOWSKI")
+MUSGRAVE_TYPES = ("MULTIFRACTAL", "FBM", "HYBRID_MULTIFRACTAL", "RIDGED_MULTIFRACTAL", "HETERO_TERRAIN")
+WAVE_TYPES = ("BANDS", "RINGS")
+WAVE_BANDS = ("X", "Y", "Z", "DIAGONAL")
+WAVE_RINGS = ("X", "Y", "Z", "SPHERICAL")
+WAVE_PROFILES = ("SIN", "SAW", "TRI")
+GRADIENT_TYPES = ("LINEAR", "QUADRATIC", "EASING", "DIAGONAL", "RADIAL", "QUADRATIC_SPHERE", "SPHERICAL")
+
+
+def _emit_listed(b, op, mode, inputs, out_widths, wanted):
+    """Appends a procedural instruction computing outputs `wanted` (indices); returns their values
+    (registers, or constants where it folded).
+
+    inputs: (value, width) in layout order; out_widths: the widths of all the op's outputs.
+    """
+    in_regs = [b.register(v, w) for v, w in inputs]
+    outs = {k: b._new(out_widths[k]) for k in wanted}
+    offset = len(b.data)
+    b.data.extend(float(r.index) for r in in_regs)
+    b.data.extend(float(outs[k].index if k in outs else NO_REGISTER) for k in range(len(out_widths)))
+    b.code.append([OP[op], mode, -1, -1, -1, -1, -1, -1, offset])
+    if b._fold is not None and all(b._is_constant_reg(r) for r in in_regs):
+        return b._fold_last([outs[k] for k in wanted])
+    return [outs[k] for k in wanted]
+
+
+def _procedural(gc, node, out, op, mode, inputs, out_widths):
+    """One instruction for every linked output of `node` (plus `out`); the others' values are cached."""
+    ids = [o.identifier for o in node.outputs]
+    wanted = [k for k, o in enumerate(node.outputs) if o.identifier == out.identifier or o.is_linked]
+    values = _emit_listed(gc.b, op, mode, inputs, out_widths, wanted)
+    group = tuple(g.as_pointer() for g in gc._group_path)
+    for k, value in zip(wanted, values):
+        gc._cache.setdefault((group, node.as_pointer(), ids[k]), value)
+    return values[wanted.index(ids.index(out.identifier))]
+
+
+def _floats(gc, node, names):
+    return [(_inp(gc, node, name, 1), 1) for name in names]
+
+
+def _vector(gc, node):
+    return (_texture_vector(gc, node, TEX_COORDS["Generated"]), 3)
+
+
+def _white_noise(gc, node, out):
+    # Cycles' White Noise reads its Vector socket as is (zero when unlinked), not texture coordinates.
+    inputs = [(_inp(gc, node, "Vector", 3), 3), (_inp(gc, node, "W", 1), 1)]
+    return _procedural(gc, node, out, "TEX_WHITE_NOISE", DIMENSIONS[node.noise_dimensions], inputs, (1, 3))
+
+
+def _noise(gc, node, out):
+    inputs = [_vector(gc, node)] + _floats(gc, node, ("W", "Scale", "Detail", "Roughness", "Distortion"))
+    return _procedural(gc, node, out, "TEX_NOISE", DIMENSIONS[node.noise_dimensions], inputs, (1, 3))
+
+
+def _voronoi(gc, node, out):
+    mode = DIMENSIONS[node.voronoi_dimensions] | VORONOI_FEATURES.index(node.feature) << 4 | \
+        VORONOI_METRICS.index(node.distance) << 8
+    inputs = [_vector(gc, node)] + _floats(gc, node, ("W", "Scale", "Smoothness", "Exponent", "Randomness"))
+    return _procedural(gc, node, out, "TEX_VORONOI", mode, inputs, (1, 3, 3, 1, 1))
+
+
+def _musgrave(gc, node, out):
+    mode = DIMENSIONS[node.musgrave_dimensions] | MUSGRAVE_TYPES.index(node.musgrave_type) << 4
+    inputs = [_vector(gc, node)] + _floats(gc, node, ("W", "Scale", "Detail", "Dimension", "Lacunarity", "Offset",
+                                                     "Gain"))
+    return _procedural(gc, node, out, "TEX_MUSGRAVE", mode, inputs, (1,))
+
+
+def _wave(gc, node, out):
+    mode = WAVE_TYPES.index(node.wave_type) | WAVE_BANDS.index(node.bands_direction) << 2 | \
+        WAVE_RINGS.index(node.rings_direction) << 4 | WAVE_PROFILES.index(node.wave_profile) << 6
+    inputs = [_vector(gc, node)] + _floats(gc, node, ("Scale", "Distortion", "Detail", "Detail Scale",
+                                                     "Detail Roughness", "Phase Offset"))
+    return _procedural(gc, node, out, "TEX_WAVE", mode, inputs, (3, 1))
+
+
+def _gradient(gc, node, out):
+    mode = GRADIENT_TYPES.index(node.gradient_type)
+    return _procedural(gc, node, out, "TEX_GRADIENT", mode, [_vector(gc, node)], (3, 1))
+
+
+def _magic(gc, node, out):
+    depth = max(0, min(10, int(node.turbulence_depth)))
+    inputs = [_vector(gc, node)] + _floats(gc, node, ("Scale", "Distortion"))
+    return _procedural(gc, node, out, "TEX_MAGIC", depth, inputs, (3, 1))
+
+
+def _brick(gc, node, out):
+    mode = max(0, min(255, int(node.offset_frequency))) | max(0, min(255, int(node.squash_frequency))) << 8
+    inputs = [_vector(gc, node)] + [(_inp(gc, node, name, 3), 3) for name in ("Color1", "Color2", "Mortar")]
+    inputs += _floats(gc, node, ("Scale", "Mortar Size", "Mortar Smooth", "Bias", "Brick Width", "Row Height"))
+    inputs += [(float(node.offset), 1), (float(node.squash), 1)]
+    return _procedural(gc, node, out, "TEX_BRICK", mode, inputs, (3, 1))
+
+
+_HANDLERS.update({
+    "ShaderNodeTexWhiteNoise": _white_noise,
+    "ShaderNodeTexNoise": _noise,
+    "ShaderNodeTexVoronoi": _voronoi,
+    "ShaderNodeTexMusgrave": _musgrave,
+    "ShaderNodeTexWave": _wave,
+    "ShaderNodeTexGradient": _gradient,
+    "ShaderNodeTexMagic": _magic,
+    "ShaderNodeTexBrick": _brick,
+})

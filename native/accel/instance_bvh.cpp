@@ -6,6 +6,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
+#include <unordered_map>
 
 #include "../core/float_bounds.h"
 #include "../scene/scene.h"
@@ -68,22 +70,66 @@ void add_work(StreamStats* to, const StreamStats& w) {
     to->slices = slices;
 }
 
+std::shared_ptr<const Bvh> build_prototype(const Prototype& prototype, const BvhBuildOptions& options) {
+    auto bvh = std::make_shared<Bvh>();
+    bvh->build(prototype.vertices, options);
+    return bvh;
+}
+
+bool same_vertices(const Prototype& a, const Prototype& b) {
+    return a.vertices.size() == b.vertices.size() &&
+           std::memcmp(a.vertices.data(), b.vertices.data(), a.vertices.size() * sizeof(Vec3f)) == 0;
+}
+
 }  // namespace
 
 void InstanceBvh::build(const Scene& scene, const BvhBuildOptions& options) {
-    prototypes_.clear();
-    prototypes_.resize(scene.prototypes.size());
+    options_ = options;
+    reused_prototypes_ = built_prototypes_ = 0;
+    prototypes_.assign(scene.prototypes.size(), nullptr);
+    for (const Instance& inst : scene.instances) {
+        std::shared_ptr<const Bvh>& bvh = prototypes_[inst.prototype];
+        if (bvh) continue;
+        bvh = build_prototype(scene.prototypes[inst.prototype], options);
+        ++built_prototypes_;
+    }
+    build_top_level(scene);
+}
+
+void InstanceBvh::build_reusing(const Scene& scene, const InstanceBvh& previous, const Scene& previous_scene) {
+    options_ = previous.options_;
+    reused_prototypes_ = built_prototypes_ = 0;
+    prototypes_.assign(scene.prototypes.size(), nullptr);
+    // A BVH depends on its triangles' vertices alone (same options), so equal
+    // vertex arrays may share one. Candidates by triangle count, then compared
+    // exactly: a mesh the depsgraph did not change exports the same floats.
+    std::unordered_multimap<size_t, uint32_t> by_count;
+    for (uint32_t q = 0; q < previous_scene.prototypes.size() && q < previous.prototypes_.size(); ++q)
+        if (previous.prototypes_[q]) by_count.emplace(previous_scene.prototypes[q].triangle_count(), q);
+    for (const Instance& inst : scene.instances) {
+        std::shared_ptr<const Bvh>& bvh = prototypes_[inst.prototype];
+        if (bvh) continue;
+        const Prototype& proto = scene.prototypes[inst.prototype];
+        const auto [first, last] = by_count.equal_range(proto.triangle_count());
+        for (auto it = first; it != last && !bvh; ++it)
+            if (same_vertices(proto, previous_scene.prototypes[it->second])) bvh = previous.prototypes_[it->second];
+        if (bvh) {
+            ++reused_prototypes_;
+        } else {
+            bvh = build_prototype(proto, options_);
+            ++built_prototypes_;
+        }
+    }
+    build_top_level(scene);
+}
+
+void InstanceBvh::build_top_level(const Scene& scene) {
     placements_.clear();
     placements_.reserve(scene.instances.size());
     motions_.clear();
     std::vector<BBox> boxes;
     boxes.reserve(scene.instances.size());
     for (const Instance& inst : scene.instances) {
-        std::unique_ptr<Bvh>& bvh = prototypes_[inst.prototype];
-        if (!bvh) {
-            bvh = std::make_unique<Bvh>();
-            bvh->build(scene.prototypes[inst.prototype].vertices, options);
-        }
         uint32_t motion = kStillInstance;
         if (inst.motion != kStillInstance) {
             motion = uint32_t(motions_.size());

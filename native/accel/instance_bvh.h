@@ -60,6 +60,16 @@ public:
     // widths and spatial splits match the world-space Bvh's) and the top
     // level over scene.instances.
     void build(const Scene& scene, const BvhBuildOptions& options = {});
+    // The same, but a prototype whose object-space triangles equal those of
+    // one of `previous_scene`'s (the scene `previous` was built over) shares
+    // that prototype's BVH instead of building its own: a re-render with
+    // persistent data rebuilds only changed meshes. The top level is always
+    // rebuilt (it costs a box per instance), with `previous`'s options.
+    void build_reusing(const Scene& scene, const InstanceBvh& previous, const Scene& previous_scene);
+    // Prototype BVHs the last build took from a previous InstanceBvh, and
+    // those it built.
+    size_t reused_prototypes() const { return reused_prototypes_; }
+    size_t built_prototypes() const { return built_prototypes_; }
     bool empty() const { return top_.empty(); }
 
     // Closest instance hit of `ray` improving on `hit` (e.g. the world-space
@@ -107,11 +117,19 @@ private:
     void trace_stream(const Ray* rays, size_t n, Hit* hits, uint8_t* occluded, StreamStats* stats,
                       const float* times) const;
 
-    std::vector<std::unique_ptr<Bvh>> prototypes_;  // null for prototypes no instance uses
+    // Placements and the top level over scene.instances, once every
+    // prototype an instance uses has its BVH.
+    void build_top_level(const Scene& scene);
+
+    // Shared: a persistent-data re-render hands unchanged prototypes' BVHs
+    // on (build_reusing). Immutable once built.
+    std::vector<std::shared_ptr<const Bvh>> prototypes_;  // null for prototypes no instance uses
     std::vector<Placement> placements_;              // per scene instance
     std::vector<Motion> motions_;                    // moving instances' transforms
     std::vector<BvhNode> top_;
     std::vector<uint32_t> order_;  // top-level leaf slot -> instance
+    BvhBuildOptions options_;      // of the prototypes' BVHs
+    size_t reused_prototypes_ = 0, built_prototypes_ = 0;
 };
 
 }  // namespace coherent

@@ -1,6 +1,7 @@
 #include "json_report.h"
 
 #include <optional>
+#include <type_traits>
 
 #include <nlohmann/json.hpp>
 
@@ -33,19 +34,13 @@ nlohmann::ordered_json bounce_json(int index, const BounceStats& b) {
 
 // Sizes in bytes (stats.h MemoryStats); null where unknown.
 nlohmann::ordered_json memory_json(const MemoryStats& m) {
-    auto known = [](uint64_t v) { return v ? nlohmann::ordered_json(v) : nlohmann::ordered_json(nullptr); };
     nlohmann::ordered_json j;
-    j["triangles"] = m.triangles;
-    j["scene_bytes"] = m.scene_bytes;
-    j["bvh_bytes"] = m.bvh_bytes;
-    j["film_bytes"] = m.film_bytes;
-    j["bytes_per_triangle"] = ratio(m.bytes_per_triangle());  // scene + BVH
-    j["bvh_bytes_per_triangle"] = ratio(m.bvh_bytes_per_triangle());
-    j["estimate_bytes"] = m.estimate_bytes;  // what the check before the BVH build expected
-    j["limit_bytes"] = known(m.limit_bytes);
-    j["peak_rss_bytes"] = known(m.peak_rss_bytes);  // the process's high-water mark (VmHWM)
-    j["instances"] = m.instances;
-    j["bytes_per_instance"] = ratio(m.bytes_per_instance());  // records only; their BVHs are in bvh_bytes
+    m.for_each_reported([&](const char* name, const auto& value) {
+        if constexpr (std::is_same_v<std::decay_t<decltype(value)>, uint64_t>)
+            j[name] = value;
+        else
+            j[name] = value ? nlohmann::ordered_json(*value) : nlohmann::ordered_json(nullptr);
+    });
     return j;
 }
 

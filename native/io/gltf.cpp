@@ -23,6 +23,7 @@
 #include "gltf_accessor.h"
 #include "gltf_blender.h"
 #include "gltf_textures.h"
+#include "../shader/program.h"
 
 namespace coherent {
 namespace {
@@ -179,6 +180,7 @@ public:
         }
         if (!read_punctual_lights()) return false;
         decoded_.resize(model_.meshes.size());
+        placements_.resize(model_.meshes.size());
 
         std::vector<int> roots;
         if (!model_.scenes.empty()) {
@@ -196,6 +198,8 @@ public:
         }
         for (int root : roots)
             if (!visit(root, Transform{}, 0)) return false;
+        for (size_t m = 0; m < decoded_.size(); ++m)
+            if (decoded_[m]) add_placements(*decoded_[m], placements_[m]);
 
         if (!has_camera_) scene_.camera = gltf::framing_camera(scene_.bounds(), aspect_);
         result.had_camera = has_camera_;
@@ -266,7 +270,7 @@ private:
                 return fail("node " + std::to_string(node_index) + " refers to missing mesh " + std::to_string(node.mesh));
             std::unique_ptr<DecodedMesh>& mesh = decoded_[size_t(node.mesh)];
             if (!mesh) mesh = std::make_unique<DecodedMesh>(decode_mesh(size_t(node.mesh)));
-            add_instance(*mesh, world);
+            placements_[size_t(node.mesh)].push_back(world);
         }
         if (node.camera >= 0 && !has_camera_) {
             if (size_t(node.camera) >= model_.cameras.size())
@@ -478,8 +482,39 @@ private:
         }
     }
 
+    // A mesh that several nodes place is stored once and instanced (its BVH
+    // built once: scene/instance.h), as Blender's importer links them to one
+    // mesh datablock. A mesh placed once stays world-space triangles (faster
+    // to trace), and so does one whose materials read UVs or tangents
+    // (prototypes carry no shading attributes yet).
+    void add_placements(const DecodedMesh& mesh, const std::vector<Transform>& worlds) {
+        if (mesh.indices.empty() || worlds.empty()) return;
+        if (worlds.size() == 1 || reads_mesh_attributes(mesh)) {
+            for (const Transform& world : worlds) add_instance(mesh, world);
+            return;
+        }
+        const MeshInput input = mesh_input(mesh, Transform{});
+        const uint32_t prototype = scene_.add_prototype(input);
+        if (prototype != Scene::kNoPrototype)
+            scene_.add_instances(prototype, worlds.data(), worlds.size(), mesh.material_slots, mesh.name);
+    }
+
+    bool reads_mesh_attributes(const DecodedMesh& mesh) const {
+        for (uint32_t m : mesh.material_slots) {
+            if (m >= scene_.materials.size()) continue;
+            const auto& program = scene_.materials[m].program;
+            if (program && (program->uses_uv || program->uses_tangents)) return true;
+        }
+        return false;
+    }
+
     void add_instance(const DecodedMesh& mesh, const Transform& world) {
-        if (mesh.indices.empty()) return;
+        const MeshInput input = mesh_input(mesh, world);
+        scene_.add_mesh(input);
+    }
+
+    // `mesh` as add_mesh/add_prototype read it (pointers into `mesh`).
+    static MeshInput mesh_input(const DecodedMesh& mesh, const Transform& world) {
         MeshInput input;
         input.name = mesh.name;
         input.object_to_world = world;
@@ -491,7 +526,7 @@ private:
         input.material_slots = mesh.material_slots;
         input.normals = mesh.normals.empty() ? nullptr : mesh.normals.data();
         for (const auto& uv : mesh.uvs) input.shading.uvs.push_back(uv.size() == mesh.indices.size() * 2 ? uv.data() : nullptr);
-        scene_.add_mesh(input);
+        return input;
     }
 
     static uint32_t slot_for(std::vector<uint32_t>& slots, uint32_t scene_material) {
@@ -509,6 +544,7 @@ private:
     gltf::TextureImporter textures_;
     std::vector<PunctualLight> punctual_;
     std::vector<std::unique_ptr<DecodedMesh>> decoded_;  // per glTF mesh, filled on first use
+    std::vector<std::vector<Transform>> placements_;     // per glTF mesh: the nodes' world transforms
     bool has_camera_ = false;
     size_t visits_ = 0;
     int lights_added_ = 0;

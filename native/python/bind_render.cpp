@@ -11,6 +11,7 @@
 #include <mutex>
 #include <optional>
 #include <thread>
+#include <type_traits>
 #include <vector>
 
 #include "bind_settings.h"
@@ -75,18 +76,12 @@ py::dict settings_dict(const RenderSettings& s) {
 // Sizes in bytes (stats.h MemoryStats); None where unknown.
 py::dict memory_dict(const MemoryStats& m) {
     py::dict d;
-    auto known = [](uint64_t v) { return v ? py::object(py::int_(v)) : py::object(py::none()); };
-    d["triangles"] = m.triangles;
-    d["scene_bytes"] = m.scene_bytes;
-    d["bvh_bytes"] = m.bvh_bytes;
-    d["film_bytes"] = m.film_bytes;
-    d["bytes_per_triangle"] = ratio_object(m.bytes_per_triangle());
-    d["bvh_bytes_per_triangle"] = ratio_object(m.bvh_bytes_per_triangle());
-    d["estimate_bytes"] = m.estimate_bytes;
-    d["limit_bytes"] = known(m.limit_bytes);
-    d["peak_rss_bytes"] = known(m.peak_rss_bytes);
-    d["instances"] = m.instances;
-    d["bytes_per_instance"] = ratio_object(m.bytes_per_instance());
+    m.for_each_reported([&](const char* name, const auto& value) {
+        if constexpr (std::is_same_v<std::decay_t<decltype(value)>, uint64_t>)
+            d[name] = value;
+        else
+            d[name] = value ? py::cast(*value) : py::object(py::none());
+    });
     return d;
 }
 

@@ -257,10 +257,13 @@ size_t add_mesh(PyScene& self, const std::string& name, const py::handle& positi
 // Scene.add_prototype: a mesh stored once in object space (instance.h).
 int64_t add_prototype(PyScene& self, const std::string& name, const py::handle& positions_obj,
                       const py::handle& indices_obj, const py::handle& normals_obj,
-                      const py::handle& material_ids_obj) {
+                      const py::handle& material_ids_obj, const py::handle& uvs_obj, const py::handle& tangents_obj,
+                      const py::handle& generated_obj) {
     self.check_mutable("add_prototype");
     MeshArgs args;
     read_mesh_arrays(args, name, positions_obj, indices_obj, normals_obj, material_ids_obj);
+    MeshShadingArrays shading_arrays;  // kept alive until add_prototype copied them
+    read_mesh_shading(self, args.in, uvs_obj, tangents_obj, generated_obj, shading_arrays);
     uint32_t id;
     {
         py::gil_scoped_release unlocked;
@@ -482,21 +485,33 @@ py::dict material_dict(const Material& m) {
     return d;
 }
 
+// Holds a scene claimed while the GIL is released, as a Renderer claims it:
+// nothing may mutate it under a BVH build (PyScene::check_mutable).
+class SceneClaim {
+public:
+    explicit SceneClaim(const PyScene& scene) : scene_(const_cast<PyScene&>(scene)) { scene_.active_renderers.fetch_add(1); }
+    ~SceneClaim() { scene_.active_renderers.fetch_sub(1); }
+    SceneClaim(const SceneClaim&) = delete;
+    SceneClaim& operator=(const SceneClaim&) = delete;
+
+private:
+    PyScene& scene_;
+};
+
+double seconds_since(std::chrono::steady_clock::time_point start) {
+    return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+}
+
 double build_bvh(PyScene& self, bool spatial_splits) {
     BvhBuildOptions options;
     if (!spatial_splits) options.spatial_split_budget = 0.0f;  // plain binned SAH
     self.ensure_finalized();
     std::shared_ptr<Bvh> bvh;
-    // Claimed like a Renderer claims it: no mutation while the GIL is released.
-    self.active_renderers.fetch_add(1);
-    try {
+    {
+        SceneClaim claim(self);
         py::gil_scoped_release unlocked;
         bvh = Renderer::build_bvh(self.scene, options);  // leaves moving triangles to the MotionBvh
-    } catch (...) {
-        self.active_renderers.fetch_sub(1);
-        throw;
     }
-    self.active_renderers.fetch_sub(1);
     self.bvh = bvh;
     return bvh->build_stats().seconds;
 }
@@ -516,18 +531,39 @@ double refit_bvh_from(PyScene& self, const PyScene& previous) {
     const auto start = std::chrono::steady_clock::now();
     std::shared_ptr<const Bvh> source = previous.bvh;  // kept alive while the GIL is released
     auto bvh = std::make_shared<Bvh>();
-    self.active_renderers.fetch_add(1);  // no mutation of `self` while unlocked (as build_bvh)
-    try {
+    {
+        SceneClaim claim(self);
         py::gil_scoped_release unlocked;
         *bvh = *source;
         bvh->refit(self.scene);
-    } catch (...) {
-        self.active_renderers.fetch_sub(1);
-        throw;
     }
-    self.active_renderers.fetch_sub(1);
     self.bvh = bvh;
-    return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    return seconds_since(start);
+}
+
+// Scene.build_instance_bvh: the two-level BVH of `self`'s instances, sharing
+// the prototype BVHs of `previous` whose triangles did not change
+// (InstanceBvh::build_reusing). Persistent data's re-render: only changed
+// meshes are built again.
+py::dict build_instance_bvh(PyScene& self, const PyScene& previous) {
+    if (!previous.instance_bvh)
+        throw py::value_error("build_instance_bvh: the previous scene has no instance BVH (render it first)");
+    if (&self == &previous) throw py::value_error("build_instance_bvh: previous must be another scene");
+    self.ensure_finalized();
+    const auto start = std::chrono::steady_clock::now();
+    std::shared_ptr<const InstanceBvh> source = previous.instance_bvh;  // kept alive while unlocked
+    auto built = std::make_shared<InstanceBvh>();
+    {
+        SceneClaim claim(self), claim_previous(previous);
+        py::gil_scoped_release unlocked;
+        built->build_reusing(self.scene, *source, previous.scene);
+    }
+    self.instance_bvh = built;
+    py::dict d;
+    d["reused"] = built->reused_prototypes();
+    d["built"] = built->built_prototypes();
+    d["seconds"] = seconds_since(start);
+    return d;
 }
 
 // The world's environment map from a numpy image. Returns the number of
@@ -571,12 +607,14 @@ size_t set_world_map(PyScene& self, const py::handle& pixels, const py::handle& 
 void bind_instancing(py::class_<PyScene, std::shared_ptr<PyScene>>& scene_class) {
     scene_class
         .def("add_prototype", &add_prototype, py::arg("name"), py::arg("positions"), py::arg("indices"),
-             py::arg("normals") = py::none(), py::arg("material_ids") = py::none(),
+             py::arg("normals") = py::none(), py::arg("material_ids") = py::none(), py::kw_only(),
+             py::arg("uvs") = py::none(), py::arg("tangents") = py::none(), py::arg("generated") = py::none(),
              R"doc(Adds a mesh shared by instances, stored once in object space.
 
-Arguments as add_mesh's (no matrix). Material ids select slots that each
-instance maps to scene materials (add_instances). Returns the prototype's
-index, or -1 when no triangle was usable (reported in `dropped`).
+Arguments as add_mesh's (no matrix), UVs, tangents and texture space
+included: every instance shades with them. Material ids select slots that
+each instance maps to scene materials (add_instances). Returns the
+prototype's index, or -1 when no triangle was usable (reported in `dropped`).
 )doc")
         .def("add_instances", &add_instances, py::arg("prototype"), py::arg("matrices"),
              py::arg("material_slots") = py::none(), py::arg("name") = "", py::arg("matrices_close") = py::none(),
@@ -638,6 +676,31 @@ void bind_world(py::class_<PyScene, std::shared_ptr<PyScene>>& cls) {
             }, "(width, height) of the world's environment map; (0, 0) for none.");
 }
 
+// The BVHs a scene keeps for its Renderers, and their reuse across scenes.
+void bind_bvh(py::class_<PyScene, std::shared_ptr<PyScene>>& cls) {
+    cls.def_property_readonly("has_bvh", [](const PyScene& s) { return s.bvh != nullptr; },
+                              "Whether a BVH over the current triangles is kept for the next Renderer.")
+        .def_property_readonly("has_instance_bvh", [](const PyScene& s) { return s.instance_bvh != nullptr; },
+                              "Whether the instances' two-level BVH is kept for the next Renderer.")
+        .def("build_bvh", &build_bvh, py::arg("spatial_splits") = true, R"doc(
+Builds the BVH over the current triangles now and keeps it for the next
+Renderers (which otherwise build one with spatial splits). Without spatial
+splits the build is several times faster and traversal somewhat slower: the
+trade interactive viewports want after a geometry edit. Returns build seconds.)doc")
+        .def("refit_bvh_from", &refit_bvh_from, py::arg("previous"), R"doc(
+Keeps a copy of `previous`'s BVH refit to this scene's triangles instead of
+building one: for a scene with the same triangles in the same order, some of
+them moved (a transform edit re-exported from cached meshes). Hits are exact
+either way; the refit tree keeps the old topology, so it traces somewhat
+slower when objects moved far. Raises ValueError if `previous` has no BVH or
+a different triangle count. Returns seconds (copy + refit).)doc")
+        .def("build_instance_bvh", &build_instance_bvh, py::arg("previous"), R"doc(
+Builds this scene's instance BVH now, taking from `previous` (a scene a
+Renderer has rendered) the BVH of every prototype whose object-space
+triangles are exactly the same; only the others and the top level over the
+instances are built. Returns {"reused": n, "built": m, "seconds": s}.)doc");
+}
+
 void bind_scene(py::module_& m) {
     py::class_<PyScene, std::shared_ptr<PyScene>> scene_class(m, "Scene", R"doc(
 A scene under construction: world-space triangles, shared meshes placed by
@@ -691,20 +754,6 @@ native/shader/program.h) whose outputs override the constants per shading point.
                 s.scene.lights.clear();
                 s.finalized = false;
             }, "Removes every light (add_light adds them again). Keeps the BVH.")
-        .def_property_readonly("has_bvh", [](const PyScene& s) { return s.bvh != nullptr; },
-                               "Whether a BVH over the current triangles is kept for the next Renderer.")
-        .def("build_bvh", &build_bvh, py::arg("spatial_splits") = true, R"doc(
-Builds the BVH over the current triangles now and keeps it for the next
-Renderers (which otherwise build one with spatial splits). Without spatial
-splits the build is several times faster and traversal somewhat slower: the
-trade interactive viewports want after a geometry edit. Returns build seconds.)doc")
-        .def("refit_bvh_from", &refit_bvh_from, py::arg("previous"), R"doc(
-Keeps a copy of `previous`'s BVH refit to this scene's triangles instead of
-building one: for a scene with the same triangles in the same order, some of
-them moved (a transform edit re-exported from cached meshes). Hits are exact
-either way; the refit tree keeps the old topology, so it traces somewhat
-slower when objects moved far. Raises ValueError if `previous` has no BVH or
-a different triangle count. Returns seconds (copy + refit).)doc")
         .def("add_light", &add_light, py::arg("type") = "POINT", py::kw_only(),
              py::arg("color") = py::make_tuple(1.0, 1.0, 1.0), py::arg("power") = 10.0,
              py::arg("position") = py::make_tuple(0.0, 0.0, 0.0), py::arg("direction") = py::make_tuple(0.0, 0.0, -1.0),
@@ -751,6 +800,7 @@ a different triangle count. Returns seconds (copy + refit).)doc")
                    " lights>";
         });
     bind_world(scene_class);
+    bind_bvh(scene_class);
 }
 
 }  // namespace coherent::python

@@ -281,11 +281,19 @@ COHERENT_ALWAYS_INLINE SurfacePoint surface_point(const Scene& scene, const Path
 // inputs what its shader program computes there (built in `scratch`; a
 // normal map also replaces sp.n). Constant materials take the first return.
 COHERENT_ALWAYS_INLINE const Material& material_at(const Scene& scene, const Hit& hit, SurfacePoint& sp,
-                                                    std::optional<Material>& scratch) {
+                                                    std::optional<Material>& scratch, float time) {
     const Material& base = scene.materials[sp.material];
     if (!base.program) return base;
     ShadingGeometry g;
     g.tri = sp.tri;
+    if (hit.instance != kInvalidPrim) {
+        const Instance& inst = scene.instances[hit.instance];
+        const InstanceFrame frame = instance_frame(scene, inst, time);
+        g.prototype = &scene.prototypes[inst.prototype];
+        g.prim = hit.prim;
+        g.object_to_world = frame.to_world;
+        g.world_to_object = frame.to_object;
+    }
     g.u = hit.u;
     g.v = hit.v;
     g.p = sp.p;
@@ -477,7 +485,7 @@ inline void shade_hit(const PathContext& ctx, const PathSampler& ps, PathState& 
 
     std::optional<Material> scratch;
     const Vec3f interpolated_n = sp.n;
-    const Material& mat = material_at(scene, hit, sp, scratch);
+    const Material& mat = material_at(scene, hit, sp, scratch, s.time);
     if (s.features.pending) {
         record_emission_feature(s.features, mat.emission, s.out.albedo);
         record_surface_features(mat, sp.n, dot(sp.n, sp.wo), scene.camera, s.features, s.out.albedo,

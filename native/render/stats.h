@@ -74,6 +74,25 @@ struct MemoryStats {
     std::optional<double> bytes_per_instance() const {
         return instances ? std::optional<double>(double(instance_bytes) / double(instances)) : std::nullopt;
     }
+
+    // The figures every report shows (the CLI's JSON report, Renderer.stats()
+    // in Python), in order: visit(name, value) with value a uint64_t, or an
+    // optional (empty: unknown or undefined) uint64_t or double.
+    template <class Visit>
+    void for_each_reported(Visit&& visit) const {
+        auto known = [](uint64_t v) { return v ? std::optional<uint64_t>(v) : std::nullopt; };
+        visit("triangles", triangles);
+        visit("scene_bytes", scene_bytes);
+        visit("bvh_bytes", bvh_bytes);
+        visit("film_bytes", film_bytes);
+        visit("bytes_per_triangle", bytes_per_triangle());  // scene + BVH
+        visit("bvh_bytes_per_triangle", bvh_bytes_per_triangle());
+        visit("estimate_bytes", estimate_bytes);  // what the check before the BVH build expected
+        visit("limit_bytes", known(limit_bytes));
+        visit("peak_rss_bytes", known(peak_rss_bytes));  // the process's high-water mark (VmHWM)
+        visit("instances", instances);
+        visit("bytes_per_instance", bytes_per_instance());  // records only; their BVHs are in bvh_bytes
+    }
 };
 
 struct RenderStats {

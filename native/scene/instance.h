@@ -29,6 +29,12 @@ struct Prototype {
     std::vector<uint8_t> has_normals;   // 1 per triangle
     std::vector<uint32_t> slot_of;      // 1 per triangle: material slot, resolved per instance
     BBox bounds;                        // object space
+    // What the scene's shader programs read (SceneShading's rules), in
+    // object space, 3 per triangle; empty when no program reads them.
+    std::vector<std::vector<Vec2f>> uvs;  // [layer][corner], layers as SceneShading::uv_names
+    std::vector<Vec3f> tangents;          // unit, orthogonal to the object-space shading normal
+    std::vector<float> tangent_signs;
+    Vec3f generated_scale{1.0f}, generated_offset{0.0f};  // Blender's texture space of the mesh
 
     size_t triangle_count() const { return slot_of.size(); }
 };

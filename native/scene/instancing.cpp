@@ -73,7 +73,7 @@ BBox transformed_bounds(const BBox& b, const Transform& t) {
 // The prototype's triangles as add_mesh input (identity transform).
 struct PrototypeMesh {
     std::vector<uint32_t> indices;
-    std::vector<Vec3f> normals;
+    std::vector<float> tangents;  // x, y, z, sign per corner (MeshShadingInput's layout)
     MeshInput in;
 };
 
@@ -92,6 +92,15 @@ PrototypeMesh as_mesh_input(const Prototype& p, const Transform& xf, const Trans
     if (any_normals) pm.in.normals = &p.normals[0].x;
     pm.in.material_ids = p.slot_of.data();
     pm.in.material_slots = slots;
+    for (const auto& layer : p.uvs) pm.in.shading.uvs.push_back(layer.empty() ? nullptr : &layer[0].x);
+    if (!p.tangents.empty()) {
+        pm.tangents.reserve(4 * p.tangents.size());
+        for (size_t c = 0; c < p.tangents.size(); ++c)
+            pm.tangents.insert(pm.tangents.end(), {p.tangents[c].x, p.tangents[c].y, p.tangents[c].z, p.tangent_signs[c]});
+        pm.in.shading.tangents = pm.tangents.data();
+    }
+    pm.in.shading.generated_scale = p.generated_scale;
+    pm.in.shading.generated_offset = p.generated_offset;
     pm.in.object_to_world = xf;
     if (close) {
         pm.in.moves = true;
@@ -110,11 +119,14 @@ bool same_transform(const Transform& a, const Transform& b) {
 }  // namespace
 
 static_assert(sizeof(Vec3f) == 3 * sizeof(float), "prototype arrays are passed on as float triples");
+static_assert(sizeof(Vec2f) == 2 * sizeof(float), "prototype UVs are passed on as float pairs");
 
 uint32_t Scene::add_prototype(const MeshInput& mesh) {
     // Validated by add_mesh itself, in object space, with each material id
     // resolving to itself: one set of rules for flattened and shared meshes.
     Scene object_space;
+    object_space.shading.uv_names = shading.uv_names;  // UVs and tangents as the programs want them
+    object_space.shading.wants_tangents = shading.wants_tangents;
     MeshInput in = mesh;
     in.object_to_world = Transform{};
     in.moves = false;
@@ -142,6 +154,11 @@ uint32_t Scene::add_prototype(const MeshInput& mesh) {
     p.normals = std::move(object_space.normals);
     p.has_normals = std::move(object_space.has_normals);
     p.slot_of = std::move(object_space.material_of);
+    p.uvs = std::move(object_space.shading.uvs);
+    p.tangents = std::move(object_space.shading.tangents);
+    p.tangent_signs = std::move(object_space.shading.tangent_signs);
+    p.generated_scale = mesh.shading.generated_scale;
+    p.generated_offset = mesh.shading.generated_offset;
     for (const Vec3f& v : p.vertices) p.bounds.expand(v);
     prototypes.push_back(std::move(p));
     return uint32_t(prototypes.size() - 1);

@@ -46,12 +46,6 @@ struct NormalTransform {
     }
 };
 
-float determinant3(const Transform& t) {
-    const auto& m = t.m;
-    return m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1]) - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0]) +
-           m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0]);
-}
-
 // A mesh's vertices in world space, transformed once per vertex (with
 // motion, also at shutter close). A vertex that is non-finite in either
 // space, or at either end of the shutter, is unusable.
@@ -198,7 +192,7 @@ size_t Scene::add_mesh(const MeshInput& mesh) {
     // A mirroring transform reverses the winding; swap two corners so the
     // geometric normal keeps pointing to the side the shading normals face.
     int corner[3] = {0, 1, 2};
-    if (determinant3(xf) < 0.0f) std::swap(corner[1], corner[2]);
+    if (xf.determinant() < 0.0f) std::swap(corner[1], corner[2]);
     const WorldVertices world = world_vertices(mesh, xf, xf_close);
     // The first moving mesh turns motion on: earlier triangles stand still.
     if (mesh.moves && motion_vertices.empty()) {

@@ -33,12 +33,6 @@ Transform inverse_affine(const Transform& t) {
     return inv;
 }
 
-float determinant(const Transform& t) {
-    const auto& m = t.m;
-    return m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1]) - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0]) +
-           m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0]);
-}
-
 }  // namespace
 
 void append_shading_corners(SceneShading& shading, const MeshInput& mesh, size_t t, const int corner[3],
@@ -57,7 +51,7 @@ void append_shading_corners(SceneShading& shading, const MeshInput& mesh, size_t
         }
     }
     if (!shading.wants_tangents) return;
-    const float mirror = determinant(mesh.object_to_world) < 0.0f ? -1.0f : 1.0f;
+    const float mirror = mesh.object_to_world.determinant() < 0.0f ? -1.0f : 1.0f;
     for (int k = 0; k < 3; ++k) {
         Vec3f tangent(0.0f);
         float sign = 1.0f;

@@ -5,10 +5,12 @@
 
 #include <algorithm>
 #include <cstring>
+#include <optional>
 
 #include "../scene/scene.h"
 #include "node_color.h"
 #include "node_math.h"
+#include "node_procedural.h"
 #include "program.h"
 #include "sky_model.h"
 #include "textures.h"
@@ -39,22 +41,40 @@ T corner_lerp(const T* c, float u, float v) {
     return c[0] * (1.0f - u - v) + c[1] * u + c[2] * v;
 }
 
-Vec3f uv_coordinate(const Scene& scene, const ShadingGeometry& g, uint32_t layer) {
+// The per-corner attributes of g's triangle: the flattened scene's, or on an
+// instance its prototype's (object space).
+struct CornerSource {
+    const std::vector<std::vector<Vec2f>>& uvs;
+    const std::vector<Vec3f>& tangents;
+    const std::vector<float>& tangent_signs;
+    size_t tri;
+};
+
+CornerSource corners_of(const Scene& scene, const ShadingGeometry& g) {
+    if (g.prototype) return {g.prototype->uvs, g.prototype->tangents, g.prototype->tangent_signs, g.prim};
     const SceneShading& sh = scene.shading;
-    if (layer >= sh.uvs.size() || sh.uvs[layer].size() < 3 * size_t(g.tri) + 3) return Vec3f(0.0f);
-    const Vec2f* c = &sh.uvs[layer][3 * size_t(g.tri)];
+    return {sh.uvs, sh.tangents, sh.tangent_signs, g.tri};
+}
+
+Vec3f uv_coordinate(const Scene& scene, const ShadingGeometry& g, uint32_t layer) {
+    const CornerSource src = corners_of(scene, g);
+    if (layer >= src.uvs.size() || src.uvs[layer].size() < 3 * src.tri + 3) return Vec3f(0.0f);
+    const Vec2f* c = &src.uvs[layer][3 * src.tri];
     const float w = 1.0f - g.u - g.v;
     return {c[0].x * w + c[1].x * g.u + c[2].x * g.v, c[0].y * w + c[1].y * g.u + c[2].y * g.v, 0.0f};
 }
 
-const ObjectShading* object_of(const Scene& scene, const ShadingGeometry& g) {
+// The object's texture space at g (none for a point outside any object).
+std::optional<ObjectShading> object_of(const Scene& scene, const ShadingGeometry& g) {
+    if (g.prototype) return ObjectShading{g.world_to_object, g.prototype->generated_scale, g.prototype->generated_offset};
     const auto& objects = scene.shading.objects;
     const uint32_t o = g.tri < scene.object_of.size() ? scene.object_of[g.tri] : 0u;
-    return o < objects.size() ? &objects[o] : nullptr;
+    if (o >= objects.size()) return std::nullopt;
+    return objects[o];
 }
 
 Vec3f texture_coordinate(const Scene& scene, const ShadingGeometry& g, TexCoordKind kind, uint32_t layer) {
-    const ObjectShading* object = object_of(scene, g);
+    const std::optional<ObjectShading> object = object_of(scene, g);
     switch (kind) {
         case TexCoordKind::Uv: return uv_coordinate(scene, g, layer);
         case TexCoordKind::Generated:
@@ -73,14 +93,22 @@ Vec3f normal_map(const Scene& scene, const ShadingGeometry& g, NormalMapSpace sp
     color = color * 2.0f - Vec3f(1.0f);
     Vec3f n;
     if (space == NormalMapSpace::Tangent) {
-        const SceneShading& sh = scene.shading;
-        if (sh.tangents.size() < 3 * size_t(g.tri) + 3) return g.n;
+        const CornerSource src = corners_of(scene, g);
+        if (src.tangents.size() < 3 * src.tri + 3) return g.n;
         const Vec3f unflipped = g.front ? g.n : -g.n;
-        const Vec3f tangent = corner_lerp(&sh.tangents[3 * size_t(g.tri)], g.u, g.v);
-        const Vec3f bitangent = sh.tangent_signs[3 * size_t(g.tri)] * cross(unflipped, tangent);
+        Vec3f tangent = corner_lerp(&src.tangents[3 * src.tri], g.u, g.v);
+        float sign = src.tangent_signs[3 * src.tri];
+        if (g.prototype) {
+            // To the world as the flattened mesh's tangents are: then
+            // orthogonal to the shading normal, mirrored with the instance.
+            tangent = g.object_to_world.vector(tangent);
+            tangent = safe_normalize(tangent - unflipped * dot(unflipped, tangent));
+            if (g.object_to_world.determinant() < 0.0f) sign = -sign;
+        }
+        const Vec3f bitangent = sign * cross(unflipped, tangent);
         n = safe_normalize(color.x * tangent + color.y * bitangent + color.z * unflipped);
     } else if (space == NormalMapSpace::Object) {
-        const ObjectShading* object = object_of(scene, g);
+        const std::optional<ObjectShading> object = object_of(scene, g);
         const Transform* w = object ? &object->world_to_object : nullptr;
         n = w ? Vec3f{w->m[0][0] * color.x + w->m[1][0] * color.y + w->m[2][0] * color.z,
                       w->m[0][1] * color.x + w->m[1][1] * color.y + w->m[2][1] * color.z,
@@ -193,6 +221,15 @@ void run(const Scene& scene, const ShaderProgram& prog, const ShadingGeometry& g
                 r.set(in.out[0], normal_map(scene, g, NormalMapSpace(in.mode), r.f(in.in[0]), r.v(in.in[1])));
                 break;
             case ShaderOp::Clamp: r.set(in.out[0], svm_clamp(in.mode, r.f(in.in[0]), r.f(in.in[1]), r.f(in.in[2]))); break;
+            // Procedural textures
+            case ShaderOp::TexWhiteNoise:
+            case ShaderOp::TexNoise:
+            case ShaderOp::TexVoronoi:
+            case ShaderOp::TexMusgrave:
+            case ShaderOp::TexWave:
+            case ShaderOp::TexGradient:
+            case ShaderOp::TexMagic:
+            case ShaderOp::TexBrick: run_procedural(in, prog.data.data(), r.r); break;
             case ShaderOp::SkyTexture: r.set(in.out[0], eval_packed_sky(prog.data.data() + in.data, r.v(in.in[0]))); break;
             case ShaderOp::Count: break;
         }

@@ -6,6 +6,7 @@
 
 namespace coherent {
 
+struct Prototype;
 struct Scene;
 struct ShaderProgram;
 
@@ -18,6 +19,12 @@ struct ShadingGeometry {
     Vec3f ng{0.0f};            // geometric normal, on that side
     Vec3f wo{0.0f};            // towards where the ray came from
     bool front = true;         // the ray hit the side the winding normal points to
+    // On an instance (scene/instance.h; else null): the prototype, its
+    // triangle (`tri` is then meaningless) and the instance's transforms at
+    // the ray's time. Attributes come from the prototype, in object space.
+    const Prototype* prototype = nullptr;
+    uint32_t prim = 0;
+    Transform object_to_world, world_to_object;
 };
 
 // The closures and emission of `mat` at g: its constants with the program's

@@ -4,6 +4,7 @@
 
 #include "node_color.h"
 #include "node_math.h"
+#include "node_procedural.h"
 #include "sky_model.h"
 
 namespace coherent {
@@ -33,6 +34,15 @@ OpShape shape_of(const ShaderInstr& in) {
         case ShaderOp::TexCoord: return {{0, 0, 0, 0}, {3, 0}};
         case ShaderOp::NormalMap: return {{1, 3, 0, 0}, {3, 0}};
         case ShaderOp::Clamp: return {{1, 1, 1, 0}, {1, 0}};
+        // Procedural textures: no fixed slots, a register list in `data` (node_procedural.h).
+        case ShaderOp::TexWhiteNoise:
+        case ShaderOp::TexNoise:
+        case ShaderOp::TexVoronoi:
+        case ShaderOp::TexMusgrave:
+        case ShaderOp::TexWave:
+        case ShaderOp::TexGradient:
+        case ShaderOp::TexMagic:
+        case ShaderOp::TexBrick: break;
         case ShaderOp::SkyTexture: return {{3, 0, 0, 0}, {3, 0}};
         case ShaderOp::Count: break;
     }
@@ -79,6 +89,10 @@ std::string ShaderProgram::validate(size_t image_count, size_t uv_layer_count) c
             return where(i) + "image " + std::to_string(in.data) + " does not exist";
         if (in.op == ShaderOp::TexCoord && in.mode == uint16_t(TexCoordKind::Uv) && in.data >= uv_layer_count)
             return where(i) + "UV layer " + std::to_string(in.data) + " does not exist";
+        if (is_procedural(in.op)) {
+            const std::string error = validate_procedural(in, data, regs);
+            if (!error.empty()) return where(i) + error;
+        }
         if (in.op == ShaderOp::SkyTexture &&
             (in.data > data.size() || !packed_sky_valid(data.data() + in.data, data.size() - in.data)))
             return where(i) + "sky texture data missing or malformed";

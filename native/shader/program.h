@@ -49,6 +49,16 @@ enum class ShaderOp : uint16_t {
     TexCoord,     // mode: TexCoordKind; data: UV layer (for Uv); out0 vec3
     NormalMap,    // mode: NormalMapSpace; data: UV layer of the tangents; in a strength, b colour; out0 vec3
     Clamp,        // mode: 0 min-max, 1 range; in a value, b min, c max; out0 float
+    // Procedural textures: registers through a list in `data`, modes and
+    // layouts in shader/node_procedural.h.
+    TexWhiteNoise,
+    TexNoise,
+    TexVoronoi,
+    TexMusgrave,
+    TexWave,
+    TexGradient,
+    TexMagic,
+    TexBrick,
     // Sky
     SkyTexture,   // data: offset of a packed sky (sky_model.h pack()); in a vector; out0 colour
     Count

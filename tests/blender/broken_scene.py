@@ -48,8 +48,8 @@ tex_mesh.update()
 textured = bpy.data.materials.new("TexturedMaterial")
 textured.use_nodes = True
 bsdf = textured.node_tree.nodes["Principled BSDF"]
-noise = textured.node_tree.nodes.new("ShaderNodeTexNoise")
-textured.node_tree.links.new(noise.outputs["Color"], bsdf.inputs["Base Color"])
+texture = textured.node_tree.nodes.new("ShaderNodeTexPointDensity")  # a texture COHERENT does not support
+textured.node_tree.links.new(texture.outputs["Color"], bsdf.inputs["Base Color"])
 tex_mesh.materials.append(textured)
 scene.collection.objects.link(bpy.data.objects.new("TexturedObject", tex_mesh))
 

@@ -229,6 +229,207 @@ def checker_case(nt):
     return checker.outputs[0]
 
 
+# -- procedural textures (White Noise, Noise, Voronoi, Musgrave, Wave, Gradient, Magic, Brick) ----------
+#
+# Each case drives the three channels with up to three outputs or node
+# configurations over a point that varies across the image: x, y in [-2, 2],
+# z in [0.35, 1.85] and W in [-1.1, 1.9] (scaled further by the node), so a
+# 32x32 image spans several noise cells. Discontinuous outputs (cell colours,
+# saw waves, brick edges) are read at pixel centres, where float rounding
+# would have to land within ~1e-6 of a cell boundary to flip a pixel.
+
+
+def proc_point(nt, span=4.0):
+    """(vector, W) sockets varying over the image."""
+    u, v, _ = separate(nt, pixel_uv(nt))
+    vector = combine(nt, affine(nt, u, span, -span / 2), affine(nt, v, span, -span / 2), affine(nt, u, 1.5, 0.35))
+    return vector, affine(nt, v, 3.0, -1.1)
+
+
+def proc_node(nt, kind, vector=None, w=None, inputs=None, **props):
+    n = node(nt, kind, **props)
+    if vector is not None:
+        nt.links.new(vector, n.inputs["Vector"])
+    if w is not None:
+        nt.links.new(w, n.inputs["W"])
+    for name, value in (inputs or {}).items():
+        n.inputs[name].default_value = value
+    return n
+
+
+def channel(nt, color, k):
+    return separate(nt, color)[k]
+
+
+def fac_and_color(nt, n, fac="Fac", color="Color"):
+    """R: the float output, G and B: the colour's green and blue."""
+    return combine(nt, n.outputs[fac], channel(nt, n.outputs[color], 1), channel(nt, n.outputs[color], 2))
+
+
+def white_noise_case(dims):
+    def build(nt):
+        # Hashes read the bits of their input: integer lattice points, exact in both engines.
+        scaled = node(nt, "ShaderNodeVectorMath", operation="MULTIPLY")
+        scaled.inputs[1].default_value = (8.0, 8.0, 0.0)
+        nt.links.new(pixel_uv(nt), scaled.inputs[0])
+        lattice = node(nt, "ShaderNodeVectorMath", operation="FLOOR")
+        nt.links.new(scaled.outputs[0], lattice.inputs[0])
+        shifted = node(nt, "ShaderNodeVectorMath", operation="ADD")
+        shifted.inputs[1].default_value = (-3.0, 1.0, 5.0)
+        nt.links.new(lattice.outputs[0], shifted.inputs[0])
+        x, y, _ = separate(nt, lattice.outputs[0])
+        w = node(nt, "ShaderNodeMath", operation="MULTIPLY_ADD")
+        nt.links.new(x, w.inputs[0])
+        w.inputs[1].default_value = 8.0
+        nt.links.new(y, w.inputs[2])
+        n = proc_node(nt, "ShaderNodeTexWhiteNoise", shifted.outputs[0], w.outputs[0], noise_dimensions=dims)
+        return fac_and_color(nt, n, fac="Value")
+    return build
+
+
+def noise_case(dims, detail, distortion):
+    """Distortion amplifies rounding: the colour's seeds add offsets of 100..200 to the distorted point,
+    where a float ulp is 1.5e-5, so a last-bit difference in the distortion can move a colour channel by
+    ~1.5e-5 (seen on a few pixels of noise_3d), still inside the tolerance."""
+    def build(nt):
+        vector, w = proc_point(nt)
+        n = proc_node(nt, "ShaderNodeTexNoise", vector, w, noise_dimensions=dims,
+                      inputs={"Scale": 2.3, "Detail": detail, "Roughness": 0.6, "Distortion": distortion})
+        return fac_and_color(nt, n)
+    return build
+
+
+def voronoi_case(dims, feature, metric="EUCLIDEAN", last="Position"):
+    """R: Distance (Radius for N-Sphere Radius), G: colour green, B: `last` (Position x, W)."""
+    def build(nt):
+        vector, w = proc_point(nt)
+        n = proc_node(nt, "ShaderNodeTexVoronoi", vector, w, voronoi_dimensions=dims, feature=feature,
+                      distance=metric, inputs={"Scale": 1.7, "Smoothness": 0.8, "Exponent": 0.7,
+                                               "Randomness": 0.85})
+        first = n.outputs["Radius" if feature == "N_SPHERE_RADIUS" else "Distance"]
+        third = n.outputs[last]
+        if last == "Position":
+            third = affine(nt, channel(nt, third, 0), 0.25, 0.5)
+        elif last == "W":
+            third = affine(nt, third, 0.25, 0.5)
+        return combine(nt, first, channel(nt, n.outputs["Color"], 1), third)
+    return build
+
+
+def musgrave_case(dims, types, detail):
+    """One Musgrave type per channel, mapped by 0.25 x + 0.5 into positive values."""
+    def build(nt):
+        vector, w = proc_point(nt)
+        outs = []
+        for kind in types:
+            n = proc_node(nt, "ShaderNodeTexMusgrave", vector, w, musgrave_dimensions=dims, musgrave_type=kind,
+                          inputs={"Scale": 1.9, "Detail": detail, "Dimension": 1.3, "Lacunarity": 2.1,
+                                  "Offset": 0.9, "Gain": 1.4})
+            outs.append(affine(nt, n.outputs["Fac"], 0.25, 0.5))
+        while len(outs) < 3:
+            outs.append(0.5)
+        return combine(nt, *outs)
+    return build
+
+
+def wave_case(configs):
+    """configs: (wave_type, direction, profile, distortion) per channel."""
+    def build(nt):
+        vector, _ = proc_point(nt, span=2.0)
+        outs = []
+        for kind, direction, profile, distortion in configs:
+            props = {"wave_type": kind, "wave_profile": profile,
+                     ("bands_direction" if kind == "BANDS" else "rings_direction"): direction}
+            n = proc_node(nt, "ShaderNodeTexWave", vector, inputs={
+                "Scale": 0.6, "Distortion": distortion, "Detail": 2.5, "Detail Scale": 1.3,
+                "Detail Roughness": 0.55, "Phase Offset": 0.4}, **props)
+            outs.append(n.outputs["Fac"])
+        outs[-1] = channel(nt, n.outputs["Color"], 2)  # the colour output too
+        return combine(nt, *outs)
+    return build
+
+
+def gradient_case(types):
+    def build(nt):
+        vector, _ = proc_point(nt, span=2.4)
+        outs = [proc_node(nt, "ShaderNodeTexGradient", vector, gradient_type=t) for t in types]
+        socks = [n.outputs["Fac"] for n in outs]
+        socks[-1] = channel(nt, outs[-1].outputs["Color"], 2)
+        while len(socks) < 3:
+            socks.append(0.5)
+        return combine(nt, *socks)
+    return build
+
+
+def magic_case(depth):
+    def build(nt):
+        vector, _ = proc_point(nt, span=2.0)
+        n = proc_node(nt, "ShaderNodeTexMagic", vector, turbulence_depth=depth,
+                      inputs={"Scale": 1.3, "Distortion": 1.7})
+        return fac_and_color(nt, n)
+    return build
+
+
+def brick_case(offset, offset_frequency, squash, squash_frequency, mortar_smooth, bias):
+    def build(nt):
+        vector, _ = proc_point(nt, span=2.0)
+        n = proc_node(nt, "ShaderNodeTexBrick", vector, offset=offset, offset_frequency=offset_frequency,
+                      squash=squash, squash_frequency=squash_frequency, inputs={
+                          "Color1": (0.9, 0.3, 0.2, 1.0), "Color2": (0.2, 0.6, 0.9, 1.0),
+                          "Mortar": (0.05, 0.1, 0.0, 1.0), "Scale": 2.7, "Mortar Size": 0.06,
+                          "Mortar Smooth": mortar_smooth, "Bias": bias, "Brick Width": 0.55, "Row Height": 0.23})
+        color = n.outputs["Color"]
+        return combine(nt, channel(nt, color, 0), n.outputs["Fac"], channel(nt, color, 2))
+    return build
+
+
+def procedural_cases():
+    c = {}
+    for dims in ("1D", "2D", "3D", "4D"):
+        d = dims.lower()
+        c[f"white_noise_{d}"] = white_noise_case(dims)
+    c["noise_1d"] = noise_case("1D", 3.5, 0.8)
+    c["noise_2d"] = noise_case("2D", 2.0, 0.0)
+    c["noise_3d"] = noise_case("3D", 2.0, 1.3)
+    c["noise_4d"] = noise_case("4D", 1.7, 0.5)
+    # Every feature in every dimension; the metrics on F1 (3D), F2 and Smooth F1.
+    metric_of = {"1D": "EUCLIDEAN", "2D": "MANHATTAN", "3D": "CHEBYCHEV", "4D": "MINKOWSKI"}
+    for dims in ("1D", "2D", "3D", "4D"):
+        d = dims.lower()
+        last = "W" if dims in ("1D", "4D") else "Position"
+        c[f"voronoi_{d}_f1"] = voronoi_case(dims, "F1", last=last)
+        c[f"voronoi_{d}_f2_{metric_of[dims].lower()}"] = voronoi_case(dims, "F2", metric_of[dims], last)
+        c[f"voronoi_{d}_smooth_f1"] = voronoi_case(dims, "SMOOTH_F1", "MINKOWSKI" if dims == "2D" else "EUCLIDEAN",
+                                                  last)
+        c[f"voronoi_{d}_edge"] = voronoi_case(dims, "DISTANCE_TO_EDGE", last=last)
+        c[f"voronoi_{d}_radius"] = voronoi_case(dims, "N_SPHERE_RADIUS", last=last)
+    for metric in ("MANHATTAN", "CHEBYCHEV", "MINKOWSKI"):
+        c[f"voronoi_3d_f1_{metric.lower()}"] = voronoi_case("3D", "F1", metric)
+    c["voronoi_4d_smooth_f1_manhattan"] = voronoi_case("4D", "SMOOTH_F1", "MANHATTAN", "W")
+    types = ("FBM", "MULTIFRACTAL", "HYBRID_MULTIFRACTAL", "RIDGED_MULTIFRACTAL", "HETERO_TERRAIN")
+    for k, dims in enumerate(("1D", "2D", "3D", "4D")):
+        # Rotate through the types so each dimension sees three of them and each type two dimensions.
+        chosen = tuple(types[(k * 3 + j) % 5] for j in range(3))
+        c[f"musgrave_{dims.lower()}"] = musgrave_case(dims, chosen, 3.5 if k % 2 else 2.0)
+    c["musgrave_3d_all_b"] = musgrave_case("3D", ("HETERO_TERRAIN", "RIDGED_MULTIFRACTAL", "HYBRID_MULTIFRACTAL"),
+                                           2.6)
+    c["wave_bands"] = wave_case((("BANDS", "X", "SIN", 0.0), ("BANDS", "Y", "SAW", 0.0),
+                                 ("BANDS", "DIAGONAL", "TRI", 0.0)))
+    c["wave_bands_z_distorted"] = wave_case((("BANDS", "Z", "SIN", 3.0), ("BANDS", "DIAGONAL", "SAW", 1.5),
+                                             ("BANDS", "X", "TRI", 2.0)))
+    c["wave_rings"] = wave_case((("RINGS", "X", "SAW", 0.0), ("RINGS", "Y", "TRI", 0.0), ("RINGS", "Z", "SIN", 0.0)))
+    c["wave_rings_spherical"] = wave_case((("RINGS", "SPHERICAL", "SIN", 2.0), ("RINGS", "SPHERICAL", "TRI", 0.0),
+                                           ("RINGS", "SPHERICAL", "SAW", 1.0)))
+    c["gradient_a"] = gradient_case(("LINEAR", "QUADRATIC", "EASING"))
+    c["gradient_b"] = gradient_case(("DIAGONAL", "RADIAL", "QUADRATIC_SPHERE"))
+    c["gradient_c"] = gradient_case(("SPHERICAL", "LINEAR"))
+    for depth in (0, 1, 4, 10):
+        c[f"magic_depth{depth}"] = magic_case(depth)
+    c["brick"] = brick_case(0.5, 2, 1.0, 1, 0.0, 0.0)
+    c["brick_offset_squash_smooth"] = brick_case(0.3, 3, 0.6, 2, 0.5, 0.2)
+    return c
+
+
 def make_image(name, width, height, alpha=False, is_float=True, colorspace="Non-Color"):
     """A deterministic RGBA test pattern held only inside Blender (a generated image)."""
     image = bpy.data.images.new(name, width, height, alpha=alpha, float_buffer=is_float)
@@ -395,6 +596,7 @@ def cases():
     c["texcoords"] = texcoord_case
     c["normal_map_tangent"] = normal_map_case("TANGENT")
     c["normal_map_object"] = normal_map_case("OBJECT")
+    c.update(procedural_cases())
     return c
 
 

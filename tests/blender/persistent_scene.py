@@ -3,7 +3,8 @@
 #
 #   blender -b --factory-startup --addons coherent --python persistent_scene.py \
 #       -E COHERENT -o OUT_#### -s 1 -e 3 -a -- MODE PERSISTENT
-#     MODE        move:   a cube keyframed along x beside a static ico sphere and floor
+#     MODE        move:   a cube keyframed along x beside a static floor and two ico spheres
+#                         sharing one mesh (a prototype with two instances)
 #                 deform: the same, plus the floor's shape key keyframed (its geometry
 #                         changes every frame)
 #                 edit:   the move scene at frame 1 rendered twice by this script (F12
@@ -36,6 +37,7 @@ linear(cube)
 
 bpy.ops.mesh.primitive_ico_sphere_add(subdivisions=3, radius=0.6, location=(0.0, 1.2, 0.6))
 bpy.ops.object.shade_smooth()
+bpy.ops.object.duplicate_move_linked(TRANSFORM_OT_translate={"value": (1.6, 0.4, 0.0)})
 
 bpy.ops.mesh.primitive_plane_add(size=6.0)
 floor = bpy.context.active_object

@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from test_cli import write_gltf
+from test_cli import oiio_pixels, write_gltf
 
 REPO = Path(__file__).resolve().parents[2]
 GRID = 120  # vertices per side: 2 * 119^2 = 28,322 triangles
@@ -123,3 +123,35 @@ def test_module_raises_memory_error_naming_the_sizes_and_still_renders(native, m
     assert m["triangles"] == TRIANGLES and m["bvh_bytes"] == renderer.bvh_stats()["bytes"]
     assert 100 <= m["bytes_per_triangle"] <= 500
     assert m["peak_rss_bytes"] >= m["scene_bytes"] + m["bvh_bytes"]
+
+
+def test_gltf_mesh_placed_by_several_nodes_is_stored_once(cli, tmp_path):
+    # Three nodes placing one glTF mesh become one prototype and three
+    # instances (its triangles and BVH stored once); three copies of the mesh
+    # are three world-space meshes. The images agree up to the rounding of
+    # hits through a transform.
+    positions, indices = grid_arrays()
+    camera = {"camera": 0, "translation": [0.0, 0.0, 6.0]}
+    places = [{"translation": [x, 0.0, 0.0]} for x in (-2.2, 0.0, 2.2)]
+    reports, images = {}, {}
+    for kind in ("shared", "copies"):
+        path = write_gltf(tmp_path / f"{kind}.gltf", positions.ravel().tolist(), indices.ravel().tolist())
+        doc = json.loads(path.read_text())
+        doc["cameras"] = [{"type": "perspective", "perspective": {"yfov": 0.9, "znear": 0.01}}]
+        if kind == "copies":
+            doc["meshes"] = doc["meshes"] * 3
+        doc["nodes"] = [{**place, "mesh": 0 if kind == "shared" else k} for k, place in enumerate(places)] + [camera]
+        doc["scenes"] = [{"nodes": [0, 1, 2, 3]}]
+        path.write_text(json.dumps(doc))
+        r = render_cli(cli, path, tmp_path / f"{kind}.exr")
+        assert r.returncode == 0, r.stderr
+        reports[kind] = json.loads(r.stdout)["memory"]
+        pixels = oiio_pixels(tmp_path / f"{kind}.exr")
+        images[kind] = np.array([pixels[key][:3] for key in sorted(pixels)])
+    assert reports["shared"]["instances"] == 3 and reports["copies"]["instances"] == 0
+    # One copy of the grid's vertices instead of three.
+    assert reports["shared"]["scene_bytes"] < 0.5 * reports["copies"]["scene_bytes"]
+    shared, copies = images["shared"], images["copies"]
+    assert shared.std() > 0.01, "the grids must be visible"
+    close = np.abs(shared - copies) <= 1e-4 * np.maximum(1.0, np.abs(copies))
+    assert close.mean() > 0.99, f"{100 * (1 - close.mean()):.2f} % of values differ"

@@ -66,7 +66,9 @@ class Tree:
 
 
 def link(from_socket, to_socket):
-    to_socket.links.append(Link(from_socket, to_socket))
+    new = Link(from_socket, to_socket)
+    to_socket.links.append(new)
+    from_socket.links.append(new)  # as in bpy, an output lists its links too
 
 
 def math(op, a=0.0, b=0.0):
@@ -159,14 +161,103 @@ def test_unsupported_nodes_warn_once_per_type_and_use_the_default():
     gc, builder, warnings = compiler()
     targets = []
     for name in ("noise_a", "noise_b"):
-        noise = Node("ShaderNodeTexNoise", name=name, outputs=[("Fac", "VALUE", 0.25)])
+        noise = Node("ShaderNodeTexPointDensity", name=name, outputs=[("Fac", "VALUE", 0.25)])
         target = consumer()
         link(noise.outputs[0], target)
         targets.append(gc.input_value(target))
     assert targets == [0.25, 0.25]
-    assert len(warnings) == 1 and "ShaderNodeTexNoise" in warnings[0] and "noise_a" in warnings[0]
+    assert len(warnings) == 1 and "ShaderNodeTexPointDensity" in warnings[0] and "noise_a" in warnings[0]
 
 
 def test_colour_to_float_uses_luminance_and_float_to_colour_broadcasts():
     assert sc.convert_constant((1.0, 0.0, 0.0), 1) == pytest.approx(sc._LUMA[0])
     assert sc.convert_constant(0.5, 3) == (0.5, 0.5, 0.5)
+
+
+# -- procedural textures ---------------------------------------------------------------
+
+
+def _lookup3_final(a, b, c):
+    """Bob Jenkins' lookup3 final() on 32-bit words, written from lookup3.c, independent of native/."""
+    m = 0xFFFFFFFF
+    rot = lambda x, k: ((x << k) | (x >> (32 - k))) & m  # noqa: E731
+    c ^= b; c = (c - rot(b, 14)) & m
+    a ^= c; a = (a - rot(c, 11)) & m
+    b ^= a; b = (b - rot(a, 25)) & m
+    c ^= b; c = (c - rot(b, 16)) & m
+    a ^= c; a = (a - rot(c, 4)) & m
+    b ^= a; b = (b - rot(a, 14)) & m
+    c ^= b; c = (c - rot(b, 24)) & m
+    return c
+
+
+def _hash_float3_to_float(x, y, z):
+    """Cycles' hash_float3_to_float: lookup3 hashword of the three float bit patterns, seed 13, as [0, 1]."""
+    import struct
+    import numpy as np
+    kx, ky, kz = (struct.unpack("<I", struct.pack("<f", v))[0] for v in (x, y, z))
+    a = b = c = (0xDEADBEEF + (3 << 2) + 13) & 0xFFFFFFFF
+    c, b, a = (c + kz) & 0xFFFFFFFF, (b + ky) & 0xFFFFFFFF, (a + kx) & 0xFFFFFFFF
+    return float(np.float32(_lookup3_final(a, b, c)) * (np.float32(1.0) / np.float32(0xFFFFFFFF)))
+
+
+def white_noise(vector, dims="3D"):
+    return Node("ShaderNodeTexWhiteNoise", inputs=[("Vector", "VECTOR", vector), ("W", "VALUE", 0.0)],
+                outputs=[("Value",), ("Color", "RGBA")], noise_dimensions=dims)
+
+
+def test_procedural_node_with_constant_inputs_folds_to_cycles_hash():
+    gc, builder, warnings = compiler()
+    target = consumer()
+    link(white_noise((1.5, -2.0, 0.25)).outputs["Value"], target)
+    value = gc.input_value(target)
+    assert sc.is_constant(value) and builder.code == [] and warnings == []
+    assert value == _hash_float3_to_float(1.5, -2.0, 0.25)
+
+
+def test_procedural_nodes_emit_valid_programs():
+    gc, builder, warnings = compiler()
+    coord = uv_node()
+    fac_color, color_fac = [("Fac",), ("Color", "RGBA")], [("Color", "RGBA"), ("Fac",)]
+    kinds = {  # Blender's outputs, in its order, and the node's properties
+        "ShaderNodeTexNoise": (fac_color, dict(noise_dimensions="4D")),
+        "ShaderNodeTexVoronoi": ([("Distance",), ("Color", "RGBA"), ("Position", "VECTOR"), ("W",), ("Radius",)],
+                                 dict(voronoi_dimensions="2D", feature="SMOOTH_F1", distance="MINKOWSKI")),
+        "ShaderNodeTexMusgrave": ([("Fac",)], dict(musgrave_dimensions="3D", musgrave_type="HETERO_TERRAIN")),
+        "ShaderNodeTexWave": (color_fac, dict(wave_type="RINGS", bands_direction="X", rings_direction="SPHERICAL",
+                                              wave_profile="TRI")),
+        "ShaderNodeTexGradient": (color_fac, dict(gradient_type="RADIAL")),
+        "ShaderNodeTexMagic": (color_fac, dict(turbulence_depth=4)),
+        "ShaderNodeTexBrick": (color_fac, dict(offset=0.5, offset_frequency=2, squash=1.0, squash_frequency=2)),
+    }
+    names = ["W", "Scale", "Detail", "Roughness", "Distortion", "Smoothness", "Exponent", "Randomness", "Dimension",
+             "Lacunarity", "Offset", "Gain", "Detail Scale", "Detail Roughness", "Phase Offset", "Mortar Size",
+             "Mortar Smooth", "Bias", "Brick Width", "Row Height"]
+    inputs = [("Vector", "VECTOR", (0, 0, 0))] + [(n, "VALUE", 0.5) for n in names] + \
+        [(n, "RGBA", (0.5, 0.5, 0.5)) for n in ("Color1", "Color2", "Mortar")]
+    values = []
+    for idname, (outputs, props) in kinds.items():
+        tex = Node(idname, inputs=inputs, outputs=outputs, **props)
+        link(coord.outputs["UV"], tex.inputs["Vector"])
+        targets = [consumer(out.type) for out in tex.outputs]
+        for out, target in zip(tex.outputs, targets):  # every output linked: one instruction computes them all
+            link(out, target)
+        values += [gc.input_value(target) for target in targets]
+    assert warnings == [] and all(isinstance(v, sc.Reg) for v in values)
+    procedural = [row for row in builder.code if row[0] >= sc.OP["TEX_WHITE_NOISE"]]
+    assert len(procedural) == len(kinds)
+    for v in values:
+        builder.output("emission", 0, v)
+    scene = native.Scene()
+    scene.set_shading_inputs(uv_names=[""])
+    scene.add_material("m", closures=[], program=builder.program())  # validated natively
+
+
+def test_links_from_hidden_sockets_are_ignored_as_cycles_does():
+    gc, builder, warnings = compiler()
+    tex = white_noise((1.5, -2.0, 0.25))
+    tex.outputs["Color"].enabled = False  # as Blender hides an output a mode does not have
+    target = consumer()
+    link(tex.outputs["Color"], target)
+    assert gc.input_value(target) == 1.0 and builder.code == []  # the consumer's own default
+

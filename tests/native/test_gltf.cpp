@@ -168,9 +168,13 @@ TEST(Gltf, InstancedMeshesAreTransformedPerNodeAndReportedOnce) {
     Scene scene;
     const GltfLoadResult r = load_gltf(b.write(dir.path, "inst.gltf"), scene);
     ASSERT_TRUE(r.ok) << r.error;
-    ASSERT_EQ(scene.triangle_count(), 2u);
-    EXPECT_EQ(scene.vertices[0].z, -1.0f);
-    EXPECT_EQ(scene.vertices[3].z, 1.0f);
+    // Placed by two nodes: stored once (object space), instanced per node.
+    EXPECT_EQ(scene.triangle_count(), 0u);
+    ASSERT_EQ(scene.prototypes.size(), 1u);
+    EXPECT_EQ(scene.prototypes[0].triangle_count(), 1u);
+    ASSERT_EQ(scene.instances.size(), 2u);
+    EXPECT_EQ(scene.instances[0].object_to_world.point(scene.prototypes[0].vertices[0]).z, -1.0f);
+    EXPECT_EQ(scene.instances[1].object_to_world.point(scene.prototypes[0].vertices[0]).z, 1.0f);
     ASSERT_EQ(scene.dropped.skipped_meshes.size(), 1u);
     EXPECT_NE(scene.dropped.skipped_meshes[0].find("Broken"), std::string::npos);
 }

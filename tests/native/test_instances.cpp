@@ -428,3 +428,46 @@ TEST(Instances, MovingInstancesMatchTheMovingFlattenedTrianglesAtRandomTimes) {
     EXPECT_GT(hits, 500u);
     EXPECT_LE(differ, 6u) << "of " << hits << " hits";
 }
+
+// Persistent data: a re-render's instance BVH takes the BVH of every
+// prototype whose triangles did not change, wherever it now sits in the
+// prototype list, builds the others, and traces exactly like a fresh build.
+TEST(Instances, RebuildReusesUnchangedPrototypesAndTracesLikeAFreshBuild) {
+    Pcg32 rng(11);
+    const Rock kept = make_rock(rng), before = make_rock(rng), after = make_rock(rng);
+    auto place = [&](Scene& s, const std::vector<const Rock*>& rocks, uint32_t seed) {
+        s.add_material(diffuse_material(Vec3f(0.5f)));
+        Pcg32 xf_rng(seed);
+        for (const Rock* r : rocks) {
+            const uint32_t p = s.add_prototype(rock_input(*r));
+            ASSERT_NE(p, Scene::kNoPrototype);
+            const std::vector<Transform> xf = random_transforms(xf_rng, 20);
+            ASSERT_EQ(s.add_instances(p, xf.data(), xf.size(), {1}, "rocks"), xf.size());
+        }
+        s.finalize();
+    };
+    Scene first, second;
+    place(first, {&before, &kept}, 1);
+    place(second, {&kept, &after}, 2);  // `kept` moved to slot 0 and re-placed; `before` became `after`
+    InstanceBvh previous;
+    previous.build(first);
+    EXPECT_EQ(previous.built_prototypes(), 2u);
+    InstanceBvh reused, fresh;
+    reused.build_reusing(second, previous, first);
+    fresh.build(second);
+    EXPECT_EQ(reused.reused_prototypes(), 1u);
+    EXPECT_EQ(reused.built_prototypes(), 1u);
+
+    Pcg32 ray_rng(5);
+    size_t hits_found = 0;
+    for (int i = 0; i < 4096; ++i) {
+        const Ray ray = random_ray(ray_rng);
+        Hit a, b;
+        reused.intersect(ray, a);
+        fresh.intersect(ray, b);
+        EXPECT_TRUE(same_hit(a, b)) << "ray " << i;
+        EXPECT_EQ(reused.occluded(ray), fresh.occluded(ray)) << "ray " << i;
+        hits_found += a.valid() ? 1 : 0;
+    }
+    EXPECT_GT(hits_found, 400u);  // the rays do meet the rocks
+}
