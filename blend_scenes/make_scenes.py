@@ -397,6 +397,24 @@ def make_hdri_world():
     return scene
 
 
+def make_sky_world():
+    """A Nishita sky (sun 35 degrees up, rotated 40 degrees, default sun disc) as the only light."""
+    scene = light_stage("Sky world", wall=False)
+    world = scene.world
+    world.use_nodes = True
+    nodes, links = world.node_tree.nodes, world.node_tree.links
+    bg = nodes.get("Background")
+    sky = nodes.new("ShaderNodeTexSky")
+    sky.sky_type = 'NISHITA'
+    sky.sun_elevation = math.radians(35.0)
+    sky.sun_rotation = math.radians(40.0)
+    sky.altitude = 100.0
+    links.new(sky.outputs["Color"], bg.inputs["Color"])
+    bg.inputs["Strength"].default_value = 0.1  # the Nishita sun is bright: keep pixels near 1
+    configure_render(scene, samples=64)
+    return scene
+
+
 def save(scene, filename):
     path = os.path.join(HERE, filename)
     bpy.context.preferences.filepaths.save_version = 0  # no .blend1 backups next to the scenes
@@ -408,7 +426,8 @@ def save(scene, filename):
 
 SCENES = {"cornell_box.blend": make_cornell_box, "glass_scene.blend": make_glass_scene,
           "sun_dim_world.blend": make_sun_dim_world, "many_lights.blend": make_many_lights,
-          "emissive_mesh.blend": make_emissive_mesh, "hdri_world.blend": make_hdri_world}
+          "emissive_mesh.blend": make_emissive_mesh, "hdri_world.blend": make_hdri_world,
+          "sky_world.blend": make_sky_world}
 
 
 def main():

@@ -27,6 +27,7 @@ OPS = ("MATH", "VECTOR_MATH", "MIX_COLOR", "MIX_FLOAT", "MIX_VECTOR", "MAPPING",
 OPS += ("CURVES", "FLOAT_CURVE", "HUE_SAT_VAL", "GAMMA", "BRIGHT_CONTRAST", "MAP_RANGE", "VECTOR_MAP_RANGE_FACTOR",
         "VECTOR_MAP_RANGE_APPLY", "COLOR_CONVERT", "FRESNEL", "GEOMETRY", "LIGHT_PATH", "ATTRIBUTE",
         "BUMP_TEX_COORD", "BUMP")
+OPS += ("SKY_TEXTURE",)  # Sky
 OP = {name: i for i, name in enumerate(OPS)}
 # Closure fields a program drives: ShaderField in program.h, in order.
 FIELDS = ("base_color", "metallic", "roughness", "specular", "transmission", "ior", "weight", "emission", "normal")
@@ -522,6 +523,20 @@ def _normal_map(gc, node, out):
                      (3,), data=data)[0]
 
 
+def _sky_texture(gc, node, out):
+    """Sky Texture: precomputed natively as for the world (world.sky_arguments), its table in the program's data."""
+    from . import native_module
+    from .world import _default_texture_mapping, sky_arguments
+    if not _default_texture_mapping(node.texture_mapping):
+        gc.warn(f"Sky Texture '{node.name}': the texture's own mapping is not supported: ignored")
+    offset = len(gc.b.data)
+    gc.b.data.extend(native_module().sky_texture(**sky_arguments(node)).tolist())
+    # A disabled Vector input (Nishita with its sun disc) ignores its link, as in Cycles.
+    vector = (_texture_vector(gc, node, TEX_COORDS["Generated"]) if node.inputs["Vector"].enabled
+              else _coordinate(gc, TEX_COORDS["Generated"], ""))
+    return gc.b.emit("SKY_TEXTURE", 0, [(vector, 3)], (3,), data=offset)[0]
+
+
 def _group(gc, node, out):
     return gc.group(node, out)
 
@@ -549,6 +564,7 @@ _HANDLERS = {
     "ShaderNodeTexChecker": _checker,
     "ShaderNodeTexImage": _image,
     "ShaderNodeNormalMap": _normal_map,
+    "ShaderNodeTexSky": _sky_texture,
     "ShaderNodeGroup": _group,
 }
 

@@ -11,6 +11,10 @@ node, and falls back to the constant colour as before):
   nothing. The native world is then Strength x map(R d), with the image's
   pixels handed over through numpy (float images are linear already; byte
   images in sRGB are linearised here, as Cycles does).
+* Background's Color <- Sky Texture (Preetham, Hosek / Wilkie or Nishita), its
+  Vector unlinked or from a Mapping node as above: the sky is precomputed
+  natively as Cycles 3.4 does (_coherent.sky_texture) and the world is
+  Strength x sky(R d), importance-sampled through a bake of the sky.
 * No nodes: world.color.
 """
 
@@ -32,6 +36,7 @@ class WorldSetup:
     color: tuple = (0.0, 0.0, 0.0)   # constant radiance, or the map's strength
     image: object = None             # bpy Image of an Environment Texture, or None
     rotation: tuple = _IDENTITY      # world direction -> map frame
+    sky: dict = None                 # Sky Texture: keyword arguments of _coherent.sky_texture, or None
     key: tuple = field(default=())   # what the native world depends on (change detection)
 
 
@@ -72,6 +77,8 @@ def _constant(rgb):
 def _environment(world, node, strength, warnings):
     """WorldSetup for an Environment Texture feeding the Background colour; None (after a warning) otherwise."""
     where = f"World '{world.name}': node '{node.name}'"
+    if node.bl_idname == "ShaderNodeTexSky":
+        return _sky(world, node, strength, warnings)
     if node.bl_idname != "ShaderNodeTexEnvironment":
         warnings.append(f"{where} ({node.bl_idname}) drives the Background colour and is not supported: "
                         f"using the colour's default value")
@@ -91,6 +98,39 @@ def _environment(world, node, strength, warnings):
     return WorldSetup(color=color, image=image, rotation=rotation, key=key)
 
 
+_SKY_SETTINGS = ("turbidity", "ground_albedo", "sun_disc", "sun_size", "sun_intensity", "sun_elevation",
+                 "sun_rotation", "altitude", "air_density", "dust_density", "ozone_density")
+
+
+def sky_arguments(node):
+    """Keyword arguments of _coherent.sky_texture for a Sky Texture node (Cycles' SkyTextureNode sync)."""
+    args = {"sky_type": node.sky_type, "sun_direction": tuple(float(v) for v in node.sun_direction)}
+    for name in _SKY_SETTINGS:
+        value = getattr(node, name)
+        args[name] = value if isinstance(value, bool) else float(value)
+    return args
+
+
+def _default_texture_mapping(mapping):
+    return (not any(mapping.translation) and not any(mapping.rotation) and tuple(mapping.scale) == (1.0, 1.0, 1.0)
+            and not mapping.use_min and not mapping.use_max
+            and (mapping.mapping_x, mapping.mapping_y, mapping.mapping_z) == ("X", "Y", "Z"))
+
+
+def _sky(world, node, strength, warnings):
+    """WorldSetup for a Sky Texture feeding the Background colour."""
+    if not _default_texture_mapping(node.texture_mapping):
+        warnings.append(f"World '{world.name}': node '{node.name}': the texture's own mapping (Texture Mapping "
+                        f"panel) is not supported: ignored (use a Mapping node)")
+    # Blender disables the Vector input of a Nishita sky with its sun disc, and
+    # Cycles ignores links into disabled sockets: the sky is then unrotated.
+    rotation = _vector_rotation(world, node, warnings) if node.inputs["Vector"].enabled else _IDENTITY
+    sky = sky_arguments(node)
+    color = (strength, strength, strength)
+    key = ("sky", color, tuple(sorted(sky.items())), rotation)
+    return WorldSetup(color=color, rotation=rotation, sky=sky, key=key)
+
+
 def _vector_rotation(world, env_node, warnings):
     """World-to-map rotation from the texture's Vector input (identity when unlinked)."""
     linked = materials._linked_source(env_node.inputs["Vector"])
@@ -104,7 +144,7 @@ def _vector_rotation(world, env_node, warnings):
                             f"(Generated is): using the view direction")
         return _IDENTITY
     if node.bl_idname != "ShaderNodeMapping":
-        warnings.append(f"{where} ({node.bl_idname}) drives the Environment Texture's vector and is not "
+        warnings.append(f"{where} ({node.bl_idname}) drives the texture's Vector and is not "
                         f"supported: using the view direction")
         return _IDENTITY
     inputs = node.inputs
@@ -152,7 +192,10 @@ def image_pixels(image):
 def export_world(world, scene, warnings):
     """Sets the native scene's world from a Blender World; returns the WorldSetup."""
     setup = parse_world(world, warnings)
-    if setup.image is not None:
+    if setup.sky is not None:
+        from . import native_module
+        scene.set_world_sky(native_module().sky_texture(**setup.sky), np.array(setup.rotation, dtype=np.float32))
+    elif setup.image is not None:
         replaced = scene.set_world_map(image_pixels(setup.image), np.array(setup.rotation, dtype=np.float32))
         if replaced:
             warnings.append(f"World '{world.name}': image '{setup.image.name}' has {replaced} non-finite or "

@@ -53,6 +53,7 @@ struct PyScene {
 
 void bind_scene(py::module_& m);
 void bind_render(py::module_& m);
+void bind_sky(py::module_& m);  // bind_sky.cpp: sky_texture, Scene.set_world_sky / world_radiance
 
 // --- argument conversion helpers (module.cpp) -------------------------------
 

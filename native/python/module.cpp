@@ -63,6 +63,7 @@ PYBIND11_MODULE(_coherent, m) {
 #endif
     bind_scene(m);
     bind_shading(m);
+    bind_sky(m);
     bind_settings(m);
     bind_render(m);
 

@@ -4,6 +4,8 @@
 #include <algorithm>
 #include <cmath>
 
+#include "../shader/sky_model.h"
+
 namespace coherent {
 
 namespace {
@@ -85,9 +87,17 @@ EnvironmentSampler::EnvironmentSampler(const EnvironmentMap& map) {
     inv_mean_weight_ = float(double(w) * double(h) / total);
     mean_luminance_ = float(integral * (2.0 * kPi * kPi / (double(w) * double(h))) / (4.0 * kPi));
     map_ = &map;
+    if (map.sun_power > 0.0f && map.sun_one_minus_cos > 0.0f) {
+        const double map_power = integral * (2.0 * kPi * kPi / (double(w) * double(h)));
+        sun_share_ = float(double(map.sun_power) / (double(map.sun_power) + map_power));
+        sun_cone_pdf_ = 1.0f / (2.0f * kPi * map.sun_one_minus_cos);
+        make_basis(map.sun_dir, sun_t_, sun_b_);
+        mean_luminance_ += float(double(map.sun_power) / (4.0 * kPi));
+    }
 }
 
 Vec3f EnvironmentSampler::eval(const Vec3f& d) const {
+    if (map_->sky) return map_->sky->eval(map_->to_map(d));
     const Vec2f uv = direction_to_equirect(map_->to_map(d));
     const int w = map_->width, h = map_->height;
     const float x = uv.x * float(w) - 0.5f, y = uv.y * float(h) - 0.5f;
@@ -104,6 +114,28 @@ float EnvironmentSampler::texel_pdf_uv(int x, int y) const {
 }
 
 bool EnvironmentSampler::sample(float u1, float u2, Vec3f& d, float& pdf) const {
+    if (sun_share_ > 0.0f) return sample_with_sun(u1, u2, d, pdf);
+    return sample_map(u1, u2, d, pdf);
+}
+
+// u1 picks the sun's cone (below sun_share_) or the map, then is stretched back to [0, 1).
+bool EnvironmentSampler::sample_with_sun(float u1, float u2, Vec3f& d, float& pdf) const {
+    if (u1 < sun_share_) {
+        const float u = u1 / sun_share_;
+        const float omc = u * map_->sun_one_minus_cos;  // 1 - cos(theta), uniform in solid angle
+        const float sin_theta = std::sqrt(std::max(0.0f, omc * (2.0f - omc)));
+        const float phi = 2.0f * kPi * u2;
+        const Vec3f m = (sun_t_ * std::cos(phi) + sun_b_ * std::sin(phi)) * sin_theta + map_->sun_dir * (1.0f - omc);
+        d = map_->from_map(normalize(m));
+    } else {
+        const float u = std::min((u1 - sun_share_) / (1.0f - sun_share_), 0.99999994f);
+        if (!sample_map(u, u2, d, pdf)) return false;
+    }
+    pdf = this->pdf(d);
+    return pdf > 0.0f && std::isfinite(pdf);
+}
+
+bool EnvironmentSampler::sample_map(float u1, float u2, Vec3f& d, float& pdf) const {
     const int w = map_->width, h = map_->height;
     float fy, fx;
     const int y = sample_cdf(row_cdf_.data(), h, u1, fy);
@@ -117,6 +149,14 @@ bool EnvironmentSampler::sample(float u1, float u2, Vec3f& d, float& pdf) const 
 }
 
 float EnvironmentSampler::pdf(const Vec3f& d) const {
+    if (!(sun_share_ > 0.0f)) return map_pdf(d);
+    // 1 - cos of the angle to the sun, without cancellation: |m - s|^2 / 2.
+    const float omc = 0.5f * length_squared(map_->to_map(d) - map_->sun_dir);
+    const float cone = omc <= map_->sun_one_minus_cos ? sun_cone_pdf_ : 0.0f;
+    return (1.0f - sun_share_) * map_pdf(d) + sun_share_ * cone;
+}
+
+float EnvironmentSampler::map_pdf(const Vec3f& d) const {
     const Vec3f m = map_->to_map(d);
     const Vec2f uv = direction_to_equirect(m);
     const int w = map_->width, h = map_->height;

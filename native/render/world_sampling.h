@@ -16,6 +16,13 @@
 // times cos(elevation) at the row's centre. The solid-angle pdf is
 //     pdf(d) = weight(texel of d) / mean(weight) / (2 pi^2 cos(elevation(d))).
 // sample() and pdf() evaluate that same expression, so MIS weights agree.
+//
+// A map with a sun (EnvironmentMap::sun_power > 0, the Nishita sky) mixes in
+// uniform sampling of the sun's cone with probability
+//     s = sun_power / (sun_power + power of the map),
+// pdf(d) = (1 - s) map_pdf(d) + s cone_pdf(d): the disc, far smaller than a
+// texel's neighbourhood, is then hit by every cone sample instead of a few
+// map samples. The map of such a sky holds the sky without the disc.
 #pragma once
 
 #include <vector>
@@ -31,7 +38,8 @@ public:
 
     // Nothing to sample: no map, or one that is black everywhere.
     bool empty() const { return map_ == nullptr; }
-    // map(d) for a world-space unit direction, bilinear (without strength).
+    // map(d) for a world-space unit direction, bilinear (without strength);
+    // for a sky world (EnvironmentMap::sky) the sky itself, exactly.
     Vec3f eval(const Vec3f& d) const;
     // A world-space unit direction with its solid-angle pdf; false for a
     // sample that landed where the pdf is 0 (a pole).
@@ -43,6 +51,9 @@ public:
 
 private:
     float texel_pdf_uv(int x, int y) const;
+    bool sample_map(float u1, float u2, Vec3f& d, float& pdf) const;
+    bool sample_with_sun(float u1, float u2, Vec3f& d, float& pdf) const;
+    float map_pdf(const Vec3f& d) const;
 
     const EnvironmentMap* map_ = nullptr;
     std::vector<float> weight_;            // per texel, row-major
@@ -50,6 +61,10 @@ private:
     std::vector<float> column_cdf_;        // height x (width + 1), each row 0 ... 1
     float inv_mean_weight_ = 0.0f;
     float mean_luminance_ = 0.0f;
+    // The sun's cone (map frame); sun_share_ == 0 when the map has no sun.
+    float sun_share_ = 0.0f;
+    float sun_cone_pdf_ = 0.0f;  // 1 / solid angle
+    Vec3f sun_t_, sun_b_;        // basis around map_->sun_dir
 };
 
 // Cycles' equirectangular mapping (map frame) and its inverse.

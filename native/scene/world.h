@@ -3,14 +3,19 @@
 // The world radiance in direction d is Scene::world_color x map(R d), where
 // world_color carries the Background node's strength (and any tint) and R
 // the Mapping node's rotation. Sampling lives in render/world_sampling.h.
+// A Sky Texture world (shader/sky_world.h) sets `sky`: the radiance is then
+// the sky's, evaluated exactly, and `rgb` is only its bake for sampling.
 #pragma once
 
 #include <cstddef>
+#include <memory>
 #include <vector>
 
 #include "../core/vec.h"
 
 namespace coherent {
+
+struct SkyTexture;
 
 struct EnvironmentMap {
     int width = 0, height = 0;
@@ -20,6 +25,14 @@ struct EnvironmentMap {
     // Row-major 3x3 rotation taking a world direction to the map's frame
     // (the Mapping node in front of the texture); identity by default.
     float rotation[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1};
+    // Sky world: radiance(d) = sky(R d); rgb is its sampling bake.
+    std::shared_ptr<const SkyTexture> sky;
+    // A sun disc sampled as a cone besides the map (render/world_sampling.h),
+    // in the map's frame: its axis, 1 - cos(angular radius), and its power
+    // (mean luminance x solid angle). sun_power == 0: none.
+    Vec3f sun_dir{0.0f, 0.0f, 1.0f};
+    float sun_one_minus_cos = 0.0f;
+    float sun_power = 0.0f;
 
     bool empty() const { return width <= 0 || height <= 0 || rgb.size() != size_t(width) * size_t(height) * 3; }
     Vec3f texel(int x, int y) const {

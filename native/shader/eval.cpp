@@ -13,6 +13,7 @@
 #include "node_math.h"
 #include "node_procedural.h"
 #include "program.h"
+#include "sky_model.h"
 #include "textures.h"
 
 namespace coherent {
@@ -439,6 +440,7 @@ void run(const Scene& scene, const ShaderProgram& prog, const ShadingGeometry& g
             case ShaderOp::Attribute:
             case ShaderOp::BumpTexCoord:
             case ShaderOp::Bump: run_adjust(scene, prog, g, in, r); break;
+            case ShaderOp::SkyTexture: r.set(in.out[0], eval_packed_sky(prog.data.data() + in.data, r.v(in.in[0]))); break;
             case ShaderOp::Count: break;
         }
     }

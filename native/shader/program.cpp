@@ -6,6 +6,7 @@
 #include "node_color.h"
 #include "node_math.h"
 #include "node_procedural.h"
+#include "sky_model.h"
 
 namespace coherent {
 
@@ -59,6 +60,7 @@ OpShape shape_of(const ShaderInstr& in) {
         case ShaderOp::Attribute: return {{0, 0, 0, 0}, {3, 1}};
         case ShaderOp::BumpTexCoord: return {{0, 0, 0, 0}, {3, 0}};
         case ShaderOp::Bump: return {{1, 1, 3, 3}, {3, 0}};
+        case ShaderOp::SkyTexture: return {{3, 0, 0, 0}, {3, 0}};
         case ShaderOp::Count: break;
     }
     return {{0, 0, 0, 0}, {0, 0}};
@@ -127,6 +129,9 @@ std::string ShaderProgram::validate(size_t image_count, size_t uv_layer_count) c
             const std::string error = validate_procedural(in, data, regs);
             if (!error.empty()) return where(i) + error;
         }
+        if (in.op == ShaderOp::SkyTexture &&
+            (in.data > data.size() || !packed_sky_valid(data.data() + in.data, data.size() - in.data)))
+            return where(i) + "sky texture data missing or malformed";
     }
     for (size_t i = 0; i < outputs.size(); ++i) {
         const ShaderOutput& o = outputs[i];

@@ -75,6 +75,8 @@ enum class ShaderOp : uint16_t {
     Attribute,            // mode: bump axis; data: colour attribute (SceneShading::color_names); out0 colour, out1 alpha
     BumpTexCoord,         // mode: TexCoordKind | bump axis << 8; data: UV layer; out0 vec3 (TexCoord at a bump offset)
     Bump,                 // mode: 1 = invert; in a strength, b distance, c normal, d heights (centre, +dx, +dy); out0 vec3
+    // Sky
+    SkyTexture,   // data: offset of a packed sky (sky_model.h pack()); in a vector; out0 colour
     Count
 };
 

@@ -100,12 +100,12 @@ def test_world_export_warns_for_unsupported_nodes_and_keeps_the_colour(coherent_
     bg = nodes["Background"]
     bg.inputs["Color"].default_value = (0.2, 0.3, 0.4, 1.0)
     bg.inputs["Strength"].default_value = 2.0
-    sky = nodes.new("ShaderNodeTexSky")
-    links.new(sky.outputs["Color"], bg.inputs["Color"])
+    noise = nodes.new("ShaderNodeTexNoise")
+    links.new(noise.outputs["Color"], bg.inputs["Color"])
     warnings = []
     setup = world_export.parse_world(world, warnings)
     assert setup.image is None and setup.color == pytest.approx((0.4, 0.6, 0.8))
-    assert len(warnings) == 1 and "WarnWorld" in warnings[0] and sky.name in warnings[0], warnings
+    assert len(warnings) == 1 and "WarnWorld" in warnings[0] and noise.name in warnings[0], warnings
 
     env = nodes.new("ShaderNodeTexEnvironment")
     links.new(env.outputs["Color"], bg.inputs["Color"])
