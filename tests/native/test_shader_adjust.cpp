@@ -13,22 +13,12 @@
 #include "shader/eval.h"
 #include "shader/node_adjust.h"
 #include "shader/program.h"
+#include "shader_test_helpers.h"
 
 namespace coherent {
 namespace {
 
-ShaderInstr instr(ShaderOp op, uint16_t mode, std::initializer_list<uint16_t> outs,
-                  std::initializer_list<uint16_t> ins, uint32_t data = 0) {
-    ShaderInstr in;
-    in.op = op;
-    in.mode = mode;
-    int k = 0;
-    for (uint16_t o : outs) in.out[k++] = o;
-    k = 0;
-    for (uint16_t i : ins) in.in[k++] = i;
-    in.data = data;
-    return in;
-}
+using test::instr;
 
 TEST(ShaderAdjust, ValidateRejectsCurveTablesOutsideTheDataAndBadModes) {
     ShaderProgram p;
