@@ -214,7 +214,7 @@ class GraphCompiler:
         self.image_index = image_index
         self.uv_index = uv_index
         self.color_index = color_index
-        self._cache = {}          # (group path, node pointer, output name) -> value
+        self._cache = {}          # (group path, node pointer, output name, bump axis) -> value
         self._warned_types = set()
         self._group_path = ()     # the group nodes we are inside, outermost first
         self.consumer = ""        # which closure input is being compiled, for warnings
@@ -616,7 +616,7 @@ def _procedural(gc, node, out, op, mode, inputs, out_widths):
     values = _emit_listed(gc.b, op, mode, inputs, out_widths, wanted)
     group = tuple(g.as_pointer() for g in gc._group_path)
     for k, value in zip(wanted, values):
-        gc._cache.setdefault((group, node.as_pointer(), ids[k]), value)
+        gc._cache.setdefault((group, node.as_pointer(), ids[k], gc.bump_axis), value)  # output_value's key
     return values[wanted.index(ids.index(out.identifier))]
 
 

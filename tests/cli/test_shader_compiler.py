@@ -244,7 +244,7 @@ def test_procedural_nodes_emit_valid_programs():
             link(out, target)
         values += [gc.input_value(target) for target in targets]
     assert warnings == [] and all(isinstance(v, sc.Reg) for v in values)
-    procedural = [row for row in builder.code if row[0] >= sc.OP["TEX_WHITE_NOISE"]]
+    procedural = [row for row in builder.code if sc.OP["TEX_WHITE_NOISE"] <= row[0] <= sc.OP["TEX_BRICK"]]
     assert len(procedural) == len(kinds)
     for v in values:
         builder.output("emission", 0, v)
