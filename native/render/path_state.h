@@ -46,6 +46,7 @@
 #include "pass_accumulation.h"
 #include "ray_offset.h"
 #include "render_modes.h"
+#include "shading_normal.h"
 #include "settings.h"
 #include "stats.h"
 #include "transparency.h"
@@ -238,8 +239,9 @@ COHERENT_ALWAYS_INLINE void orient(SurfacePoint& sp, const Ray& ray, bool has_no
         const float len = length(interp);
         if (len > 0.0f && std::isfinite(len)) {
             const Vec3f ns = (sp.front ? interp : -interp) / len;
-            // A shading normal facing away from the viewer cannot shade it.
-            if (dot(ns, sp.wo) > 1e-4f) sp.n = ns;
+            // Bent towards ng where the viewer's mirror direction would be
+            // below the surface, as Cycles 3.4 does (shading_normal.h).
+            sp.n = valid_reflection_normal(sp.ng_f, sp.wo, ns);
         }
     }
 }
