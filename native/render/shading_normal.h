@@ -21,6 +21,10 @@ namespace coherent {
 // ng: unit geometric normal on the viewer's side; wo: unit direction to the
 // viewer; n: unit shading normal on ng's side. Returns a unit normal.
 inline Vec3f valid_reflection_normal(const Vec3f& ng, const Vec3f& wo, const Vec3f& n) {
+    // A normal on the far side of the surface (a mesh whose normals disagree
+    // with its winding, e.g. a glTF with inward normals) has no valid
+    // rotation in the plane below; the geometric normal shades it.
+    if (!(dot(n, ng) > 0.0f)) return ng;
     // Reflections may always be at least as shallow as the incoming ray.
     const float threshold = std::min(0.9f * dot(ng, wo), 0.01f);
     const Vec3f r = n * (2.0f * dot(n, wo)) - wo;

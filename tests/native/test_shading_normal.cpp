@@ -63,6 +63,19 @@ TEST(ShadingNormal, AnInvalidNormalIsBentJustEnough) {
     EXPECT_GT(on_threshold, bent * 99 / 100);  // the quadratic's other root is rare
 }
 
+// Normals that disagree with the winding (the generated Cornell box's glass
+// sphere has them) shade with the geometric normal: bending such a normal
+// would send glass paths the wrong way (Whitted chains broke at its first hit).
+TEST(ShadingNormal, ANormalBelowTheSurfaceGivesTheGeometricNormal) {
+    const Vec3f ng(0, 0, 1), wo = normalize(Vec3f(0.2f, 0.1f, 1.0f));
+    for (const Vec3f& n : {Vec3f(0, 0, -1), normalize(Vec3f(0.9f, 0.1f, -0.2f)), Vec3f(1, 0, 0)}) {
+        const Vec3f got = valid_reflection_normal(ng, wo, n);
+        EXPECT_EQ(got.x, ng.x);
+        EXPECT_EQ(got.y, ng.y);
+        EXPECT_EQ(got.z, ng.z);
+    }
+}
+
 TEST(ShadingNormal, ChangesContinuouslyWithTheNormal) {
     const Vec3f ng(0, 0, 1), wo = normalize(Vec3f(1.0f, 0.0f, 0.15f));
     // Sweep the shading normal away from the viewer, through the point where
