@@ -189,9 +189,12 @@ TEST_F(SamplerStats, CptNoiseIsStructuredAndIcptBreaksItUp) {
     // Diagonal neighbours of a block share an ICPT subset in some of the
     // random Latin squares, so part of the structure remains there.
     // For a uniformly random Latin square of order 4 the probability is
-    // exactly 1/3. Measured: CPT +0.462, ICPT +0.179 (0.39 of CPT).
+    // exactly 1/3. Measured with uniform light selection: CPT +0.462, ICPT
+    // +0.179 (0.39 of CPT); with selection by power and Sobol samples CPT's
+    // diagonal structure is weaker, CPT +0.254, ICPT +0.153 (0.60), which sat
+    // on the old 0.6 bound. ICPT must still remove a clear share of it.
     EXPECT_GT(d_icpt, 0.1 * d_cpt);
-    EXPECT_LT(d_icpt, 0.6 * d_cpt);
+    EXPECT_LT(d_icpt, 0.75 * d_cpt);
 
     // Image-wide sequences: the same structure within a packet, and CPT's
     // errors are also correlated across packet boundaries (x mod 4 == 3).
