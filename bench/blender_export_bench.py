@@ -9,8 +9,12 @@ Prints one line per case with the export time (depsgraph -> coherent.Scene,
 i.e. foreach_get extraction, material conversion and native validation) and a
 JSON summary line prefixed with "RESULT ". The target is < 1.5 s for 1M
 triangles. Cases: flat-shaded grid, smooth-shaded grid (split normals), the
-same smooth grid with a Subdivision modifier evaluated by the depsgraph, and
-K linked duplicates of the grid (instancing reuses the extracted arrays).
+same smooth grid with a Subdivision modifier evaluated by the depsgraph,
+K linked duplicates of the grid (instancing reuses the extracted arrays), and
+the smooth grid under an Image Texture on UVs plus a tangent-space Normal Map
+(the export then also extracts UVs and MikkTSpace tangents).
+
+--profile prints the 25 costliest functions (cProfile) of one export per case.
 """
 
 import argparse
@@ -35,6 +39,8 @@ def parse_args():
     parser.add_argument("--triangles", type=int, default=1_000_000)
     parser.add_argument("--instances", type=int, default=4)
     parser.add_argument("--repeat", type=int, default=3, help="best of N exports per case")
+    parser.add_argument("--profile", action="store_true", help="cProfile one extra export per case")
+    parser.add_argument("--only", default=None, help="run only the cases whose name contains this")
     return parser.parse_args(argv)
 
 
@@ -63,6 +69,37 @@ def add_grid(triangles, smooth):
     return ob
 
 
+def add_uv_normal_map(mat):
+    """Image Texture on the UV map into Base Color, and a tangent-space Normal
+    Map from the same image: the material then reads UVs and tangents."""
+    image = bpy.data.images.new("Bench", 64, 64, float_buffer=False)
+    image.generated_type = "COLOR_GRID"
+    nodes, links = mat.node_tree.nodes, mat.node_tree.links
+    bsdf = nodes.get("Principled BSDF")
+    coord = nodes.new("ShaderNodeTexCoord")
+    tex = nodes.new("ShaderNodeTexImage")
+    tex.image = image
+    normal_map = nodes.new("ShaderNodeNormalMap")
+    normal_map.space = "TANGENT"
+    links.new(coord.outputs["UV"], tex.inputs["Vector"])
+    links.new(tex.outputs["Color"], bsdf.inputs["Base Color"])
+    links.new(tex.outputs["Color"], normal_map.inputs["Color"])
+    links.new(normal_map.outputs["Normal"], bsdf.inputs["Normal"])
+
+
+def profile_export(top=25):
+    import cProfile
+    import pstats
+    native = coherent.native_module()
+    depsgraph = bpy.context.evaluated_depsgraph_get()
+    profiler = cProfile.Profile()
+    profiler.enable()
+    result = export.export_scene(native, depsgraph, 512, 512)
+    profiler.disable()
+    del result
+    pstats.Stats(profiler).sort_stats("tottime").print_stats(top)
+
+
 def time_export(repeat):
     native = coherent.native_module()
     best = None
@@ -87,11 +124,16 @@ def main():
         ("smooth", dict(smooth=True, subdiv=0, instances=1)),
         ("smooth+subsurf", dict(smooth=True, subdiv=1, instances=1)),
         (f"smooth x{args.instances} linked", dict(smooth=True, subdiv=0, instances=args.instances)),
+        ("smooth+UV+tangents", dict(smooth=True, subdiv=0, instances=1, normal_map=True)),
     ]
     for name, case in cases:
+        if args.only and args.only not in name:
+            continue
         reset_scene()
         tris = args.triangles // (4 if case["subdiv"] else 1) // case["instances"]
         ob = add_grid(tris, case["smooth"])
+        if case.get("normal_map"):
+            add_uv_normal_map(ob.data.materials[0])
         if case["subdiv"]:
             mod = ob.modifiers.new("Subdivision", "SUBSURF")
             mod.levels = mod.render_levels = case["subdiv"]
@@ -104,6 +146,8 @@ def main():
         print(f"export {name:>20}: {triangles:>9,} triangles ({meshes} mesh, {instances} instances) "
               f"in {seconds:.3f} s = {triangles / seconds / 1e6:.2f} M triangles/s")
         results[name] = dict(seconds=seconds, triangles=triangles, instances=instances, meshes=meshes)
+        if args.profile:
+            profile_export()
 
     print("RESULT " + json.dumps(results))
     coherent.unregister()
