@@ -15,6 +15,10 @@ the smooth grid under an Image Texture on UVs plus a tangent-space Normal Map
 (the export then also extracts UVs and MikkTSpace tangents).
 
 --profile prints the 25 costliest functions (cProfile) of one export per case.
+--baseline FILE times another version of export.py (e.g. `git show
+main:addon/coherent/export.py > /tmp/export_main.py`) interleaved with this
+one, so that the two meet the same machine load. The UV + tangents case also
+times Blender's own mesh.calc_tangents (MikkTSpace) alone.
 """
 
 import argparse
@@ -41,6 +45,7 @@ def parse_args():
     parser.add_argument("--repeat", type=int, default=3, help="best of N exports per case")
     parser.add_argument("--profile", action="store_true", help="cProfile one extra export per case")
     parser.add_argument("--only", default=None, help="run only the cases whose name contains this")
+    parser.add_argument("--baseline", default=None, help="another export.py to time interleaved with this one")
     return parser.parse_args(argv)
 
 
@@ -100,23 +105,49 @@ def profile_export(top=25):
     pstats.Stats(profiler).sort_stats("tottime").print_stats(top)
 
 
-def time_export(repeat):
+def load_baseline(path):
+    """export.py at `path` as a module of the coherent package (its relative imports resolve there)."""
+    import importlib.util
+    spec = importlib.util.spec_from_file_location("coherent.export_baseline", path)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def time_export(repeat, modules):
+    """Best of `repeat` exports for each module, the modules taking turns."""
     native = coherent.native_module()
+    best = [None] * len(modules)
+    for _ in range(repeat):
+        for i, module in enumerate(modules):
+            depsgraph = bpy.context.evaluated_depsgraph_get()
+            start = time.perf_counter()
+            result = module.export_scene(native, depsgraph, 512, 512)
+            seconds = time.perf_counter() - start
+            if best[i] is None or seconds < best[i][0]:
+                best[i] = (seconds, result.scene.triangle_count, result.instances, result.meshes)
+            del result
+    return best
+
+
+def time_calc_tangents(ob, repeat):
+    """Best of `repeat` calls of Blender's MikkTSpace on the evaluated mesh (no export code involved)."""
+    mesh = ob.evaluated_get(bpy.context.evaluated_depsgraph_get()).data
+    mesh.calc_normals_split()  # as the export has done before it
     best = None
     for _ in range(repeat):
-        depsgraph = bpy.context.evaluated_depsgraph_get()
         start = time.perf_counter()
-        result = export.export_scene(native, depsgraph, 512, 512)
+        mesh.calc_tangents(uvmap=mesh.uv_layers[0].name)
         seconds = time.perf_counter() - start
-        if best is None or seconds < best[0]:
-            best = (seconds, result.scene.triangle_count, result.instances, result.meshes)
-        del result
+        mesh.free_tangents()
+        best = seconds if best is None else min(best, seconds)
     return best
 
 
 def main():
     args = parse_args()
     coherent.register()
+    modules = [export] + ([load_baseline(args.baseline)] if args.baseline else [])
     results = {}
 
     cases = [
@@ -142,10 +173,19 @@ def main():
             dup.location = (2.5 * i, 0.0, 0.0)
             bpy.context.scene.collection.objects.link(dup)
         bpy.context.view_layer.update()
-        seconds, triangles, instances, meshes = time_export(args.repeat)
+        timings = time_export(args.repeat, modules)
+        seconds, triangles, instances, meshes = timings[0]
         print(f"export {name:>20}: {triangles:>9,} triangles ({meshes} mesh, {instances} instances) "
               f"in {seconds:.3f} s = {triangles / seconds / 1e6:.2f} M triangles/s")
         results[name] = dict(seconds=seconds, triangles=triangles, instances=instances, meshes=meshes)
+        if args.baseline:
+            base = timings[1][0]
+            print(f"  baseline {base:.3f} s, this / baseline = {seconds / base:.2f}")
+            results[name]["baseline_seconds"] = base
+        if case.get("normal_map"):
+            tangents = time_calc_tangents(ob, args.repeat)
+            print(f"  Blender mesh.calc_tangents alone: {tangents:.3f} s")
+            results[name]["calc_tangents_seconds"] = tangents
         if args.profile:
             profile_export()
 
