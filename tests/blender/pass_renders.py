@@ -5,14 +5,16 @@
 # Ticks Cycles' passes in the view layer and renders the loaded scene with
 # each ENGINE (CYCLES, COHERENT) to OUT_DIR/<engine>.exr, a multilayer EXR.
 # MODE "light": the light passes, SAMPLES spp, 1-pixel box filter (as the
-# agreement tests). MODE "data": Mist, Position, Depth and the indices at
+# agreement tests). MODE "data": Mist, Position, UV, Depth and the indices at
 # SAMPLES spp with the filter shrunk to the pixel centre in Cycles; object
-# and material pass indices are set first (1, 2, ... in name order).
+# and material pass indices are set first (1, 2, ... in name order), and
+# meshes without UVs get two UV maps (add_uv_maps).
 # MODE "crypto": Cryptomatte object, material and asset (4 levels) and
 # IndexOB; "matte": the same through the compositor's Cryptomatte node,
 # which picks MetalSphere, to a plain EXR of its matte, and IndexOB through
 # a File Output node to OUT_DIR/index0001.exr.
 
+import math
 import os
 import sys
 
@@ -20,6 +22,27 @@ import bpy
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "blend_scenes"))
 from cycles_reference import configure_cycles_reference  # noqa: E402
+
+
+
+def add_uv_maps():
+    """Gives every mesh without one a UV map "Projected" (no material reads
+    it): a spherical projection about the object's origin, so the UV pass
+    varies across every surface; the active render map is a second one,
+    "Render", of u and v swapped, to show which map the pass reads."""
+    for mesh in bpy.data.meshes:
+        if mesh.uv_layers:
+            continue
+        for name, swap in (("Projected", False), ("Render", True)):
+            layer = mesh.uv_layers.new(name=name)
+            for loop in mesh.loops:
+                x, y, z = mesh.vertices[loop.vertex_index].co
+                r = max(1e-6, math.sqrt(x * x + y * y + z * z))
+                uv = (math.atan2(y, x) / (2.0 * math.pi) + 0.5, 0.5 + 0.5 * z / r)
+                layer.data[loop.index].uv = uv[::-1] if swap else uv
+        mesh.uv_layers["Render"].active_render = True
+        mesh.uv_layers.active = mesh.uv_layers["Projected"]
+
 
 args = sys.argv[sys.argv.index("--") + 1:]
 out_dir, percent, samples, mode, engines = args[0], int(args[1]), int(args[2]), args[3], args[4:]
@@ -75,8 +98,9 @@ elif mode in ("crypto", "matte"):
         tree.links.new(layers.outputs["IndexOB"], index.inputs[0])
         print("METAL_SPHERE_INDEX", bpy.data.objects["MetalSphere"].pass_index)
 else:
-    for name in ("mist", "position", "z", "object_index", "material_index"):
+    for name in ("mist", "position", "uv", "z", "object_index", "material_index"):
         setattr(view_layer, f"use_pass_{name}", True)
+    add_uv_maps()
     for i, ob in enumerate(sorted(bpy.data.objects, key=lambda o: o.name)):
         ob.pass_index = i + 1
     for i, mat in enumerate(sorted(bpy.data.materials, key=lambda m: m.name)):
