@@ -20,7 +20,8 @@
 #   ours a random point of the pixel, so continuous passes may differ by the
 #   largest step to a neighbouring pixel, no more. UV reads the active
 #   render UV map, which no material uses (pass_renders.add_uv_maps), and
-#   is (u, v, 1) on every object, which the test checks on its own.
+#   is (u, v, 1) on every object, which the test checks on its own; two
+#   linked copies of a sphere check it (and the others) on instances.
 
 import numpy as np
 import pytest
@@ -139,9 +140,8 @@ def test_data_passes_match_cycles_per_pixel(glass_data):
 
 
 def test_uv_pass_reads_the_active_render_map(glass_data):
-    """The UV pass shows the "Render" map with A = 1 on objects. On the floor
-    (z = 0) the "Projected" map's V is a constant 0.5; the render map's V is
-    the projection's angle, which varies across the floor."""
+    """The UV pass shows the "Render" map with A = 1 on objects: on the floor
+    its V varies, where the other map ("Decoy") is a constant."""
     ours = glass_data["coherent"]
     uva = bh.find_channels(ours, "UV", "UVA").astype(np.float64)
     index_ob = bh.find_channels(glass_data["cycles"], "IndexOB", "X")[..., 0]
