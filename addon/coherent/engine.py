@@ -49,6 +49,7 @@ _PASSES = {
 VIEW_LAYER_PASSES = (
     ("use_pass_mist", "Mist", "Z", "VALUE"),
     ("use_pass_position", "Position", "XYZ", "VECTOR"),
+    ("use_pass_uv", "UV", "UVA", "VECTOR"),
     ("use_pass_object_index", "IndexOB", "X", "VALUE"),
     ("use_pass_material_index", "IndexMA", "X", "VALUE"),
     ("use_pass_diffuse_direct", "DiffDir", "RGB", "COLOR"),

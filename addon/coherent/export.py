@@ -440,6 +440,8 @@ class SceneExporter:
             self._export_camera(bscene)
         # Shader programs decide which mesh attributes are exported, so every
         # material is converted before the first mesh.
+        if getattr(depsgraph.view_layer, "use_pass_uv", False):
+            self.materials.uv_index("")  # the UV pass reads the active render UV map, even if no material does
         self.materials.prepare([i for i in depsgraph.ids if type(i).__name__ == "Material"])
         self.shading = ShadingRequest.of(self.materials)
 

@@ -46,6 +46,7 @@ enum class PassType : uint8_t {
     Environment,
     AO,
     Mist,
+    UV,
     Position,
     IndexOB,
     IndexMA

@@ -8,7 +8,7 @@
 namespace coherent {
 
 const RenderPassInfo& render_pass_info(RenderPass p) {
-    // Offsets: 12 RGB passes (the 11 light passes and AO), then Mist,
+    // Offsets: 12 RGB passes (the 11 light passes and AO), then Mist, UV,
     // Position, IndexOB, IndexMA.
     static const RenderPassInfo infos[] = {
         {"DiffDir", "diffdir", 3, "RGB", 0},   {"DiffInd", "diffind", 3, "RGB", 3},
@@ -17,8 +17,9 @@ const RenderPassInfo& render_pass_info(RenderPass p) {
         {"TransDir", "transdir", 3, "RGB", 18}, {"TransInd", "transind", 3, "RGB", 21},
         {"TransCol", "transcol", 3, "RGB", 24}, {"Emit", "emit", 3, "RGB", 27},
         {"Env", "env", 3, "RGB", 30},          {"AO", "ao", 3, "RGB", 33},
-        {"Mist", "mist", 1, "Z", 36},          {"Position", "position", 3, "XYZ", 37},
-        {"IndexOB", "indexob", 1, "X", 40},    {"IndexMA", "indexma", 1, "X", 41},
+        {"Mist", "mist", 1, "Z", 36},          {"UV", "uv", 3, "UVA", 37},
+        {"Position", "position", 3, "XYZ", 40}, {"IndexOB", "indexob", 1, "X", 43},
+        {"IndexMA", "indexma", 1, "X", 44},
     };
     static_assert(sizeof(infos) / sizeof(infos[0]) == size_t(kRenderPassCount));
     return infos[size_t(p)];

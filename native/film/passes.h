@@ -27,9 +27,11 @@
 //   (only where it leaves the geometric surface's side), the World's AO
 //   distance long; 1 where unoccluded. Mist: 1 - (1 - mist) averaged over
 //   samples, mist = clamp((distance - start) / depth)^falloff, 1 for
-//   samples that see the world. Position, IndexOB and IndexMA: from the
-//   first sample only (Cycles writes them at sample 0), 0 where nothing was
-//   hit.
+//   samples that see the world. UV: the active render UV map at the hit,
+//   (u, v, 1), or 0 without one (Cycles' primitive_uv), averaged over all
+//   samples (0 for those that see the world). Position, IndexOB and
+//   IndexMA: from the first sample only (Cycles writes them at sample 0), 0
+//   where nothing was hit.
 // Cycles 3.4 has no Shadow pass (removed with Cycles X), so neither do we.
 #pragma once
 
@@ -57,6 +59,7 @@ enum class RenderPass : uint8_t {
     Environment,
     AO,
     Mist,
+    UV,
     Position,
     IndexOB,
     IndexMA,
@@ -86,7 +89,7 @@ PassMask pass_mask_from_names(const std::vector<std::string>& names);
 
 // One camera sample's contributions to every pass (zero where not enabled).
 struct PassSample {
-    static constexpr int kFloats = 3 * 12 + 1 + 3 + 2;
+    static constexpr int kFloats = 3 * 12 + 1 + 3 + 3 + 2;
     float v[kFloats] = {};
     float crypto_id[3] = {};  // object, material, asset of the first hit; 0 = none (cryptomatte.h)
     void add(RenderPass p, const Vec3f& c) {

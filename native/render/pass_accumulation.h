@@ -5,7 +5,9 @@
 // computed exactly as without passes (the passes only copy contributions).
 #pragma once
 
+#include <algorithm>
 #include <cmath>
+#include <string>
 
 #include "../accel/bvh.h"
 #include "../film/cryptomatte.h"
@@ -131,7 +133,22 @@ inline float mist_complement(const Scene& scene, const Vec3f& p) {
     return 1.0f - mist;
 }
 
-// Col, Mist, Position, Index and AO at the camera's first hit. The AO ray
+// Cycles' primitive_uv: the active render UV map ("" in uv_names, which the
+// add-on requests when the pass is on) at the hit, (u, v, 1); 0 without it.
+// On an instance the prototype's UVs (object space, same corners).
+inline Vec3f first_hit_uv(const Scene& scene, const Hit& hit) {
+    const auto& names = scene.shading.uv_names;
+    const size_t layer = size_t(std::find(names.begin(), names.end(), std::string()) - names.begin());
+    const std::vector<std::vector<Vec2f>>& uvs =
+        hit.instance != kInvalidPrim ? scene.prototypes[scene.instances[hit.instance].prototype].uvs
+                                     : scene.shading.uvs;
+    if (layer >= uvs.size() || uvs[layer].size() < 3 * size_t(hit.prim) + 3) return Vec3f(0.0f);
+    const Vec2f* c = &uvs[layer][3 * size_t(hit.prim)];
+    const float w = 1.0f - hit.u - hit.v;
+    return {c[0].x * w + c[1].x * hit.u + c[2].x * hit.v, c[0].y * w + c[1].y * hit.u + c[2].y * hit.v, 1.0f};
+}
+
+// Col, Mist, UV, Position, Index and AO at the camera's first hit. The AO ray
 // (directions from u1, u2, ao_distance long) is traced by `occluded(ray)`.
 template <class Occluded>
 inline void record_first_hit(PassMask mask, PassSample& out, const FirstHit& h, const Bsdf& bsdf, float u1, float u2,
@@ -154,6 +171,7 @@ inline void record_first_hit(PassMask mask, PassSample& out, const FirstHit& h, 
     out.add(RenderPass::GlossyColor, col[1]);
     out.add(RenderPass::TransmissionColor, col[2]);
     if (mask & pass_bit(RenderPass::Mist)) out.set(RenderPass::Mist, mist_complement(scene, h.p));
+    if (mask & pass_bit(RenderPass::UV)) out.set(RenderPass::UV, first_hit_uv(scene, *h.hit));
     out.set(RenderPass::Position, h.p);
     out.set(RenderPass::IndexOB, object_pass_index(scene, *h.hit));
     const auto& ma = scene.data_passes.material_pass_index;

@@ -14,11 +14,14 @@
 #   between the engines in Combined itself (brighter in Cycles), so those
 #   are not asserted there;
 # - ours add up to our Combined per pixel: (Dir + Ind) x Col + Emit + Env;
-# - data passes (Mist, Position, Depth, IndexOB, IndexMA): per pixel, on
+# - data passes (Mist, Position, UV, Depth, IndexOB, IndexMA): per pixel, on
 #   pixels inside one object (Cycles' IndexOB the same in the 3 x 3
 #   neighbourhood). Cycles samples the pixel centre (filter width 0.01),
 #   ours a random point of the pixel, so continuous passes may differ by the
-#   largest step to a neighbouring pixel, no more.
+#   largest step to a neighbouring pixel, no more. UV reads the active
+#   render UV map, which no material uses (pass_renders.add_uv_maps), and
+#   is (u, v, 1) on every object, which the test checks on its own; two
+#   linked copies of a sphere check it (and the others) on instances.
 
 import numpy as np
 import pytest
@@ -128,9 +131,22 @@ def test_data_passes_match_cycles_per_pixel(glass_data):
     for name in ("IndexOB", "IndexMA"):
         a, b = bh.find_channels(ours, name, "X")[..., 0], bh.find_channels(theirs, name, "X")[..., 0]
         assert (a[inside] == b[inside]).all(), name
-    for name, chans in (("Mist", "Z"), ("Depth", "Z"), ("Position", "XYZ")):
+    for name, chans in (("Mist", "Z"), ("Depth", "Z"), ("Position", "XYZ"), ("UV", "UVA")):
         a = bh.find_channels(ours, name, chans).astype(np.float64)
         b = bh.find_channels(theirs, name, chans).astype(np.float64)
         allowed = neighbour_step(b) + 1e-4 * (1.0 + np.abs(b).max(axis=-1))
         err = np.abs(a - b).max(axis=-1)
         assert (err[inside] <= allowed[inside]).all(), (name, float((err - allowed)[inside].max()))
+
+
+def test_uv_pass_reads_the_active_render_map(glass_data):
+    """The UV pass shows the "Render" map with A = 1 on objects: on the floor
+    its V varies, where the other map ("Decoy") is a constant."""
+    ours = glass_data["coherent"]
+    uva = bh.find_channels(ours, "UV", "UVA").astype(np.float64)
+    index_ob = bh.find_channels(glass_data["cycles"], "IndexOB", "X")[..., 0]
+    inside = interior(index_ob) & (index_ob > 0)
+    assert (uva[..., 2][inside] == 1.0).all()
+    floor = inside & (np.abs(bh.find_channels(ours, "Position", "Z")[..., 0]) < 1e-3)
+    assert floor.sum() > 100
+    assert np.ptp(uva[..., 1][floor]) > 0.2

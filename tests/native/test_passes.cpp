@@ -149,6 +149,47 @@ TEST(Passes, WorldPixels) {
     }
 }
 
+// A 4 x 4 quad filling an orthographic view, its active render UV map ("")
+// the affine (x + 2, y + 2) / 4: the UV pass is each pixel's position in the
+// image to within the half pixel a sample may land off its centre, with A = 1.
+// A scene whose programs ask for no "" map has no UVs for the pass: zeros.
+TEST(Passes, UvPassReadsTheActiveRenderMap) {
+    for (const bool requested : {true, false}) {
+        Scene s;
+        s.shading.uv_names = requested ? std::vector<std::string>{"other", ""} : std::vector<std::string>{"other"};
+        const float pos[] = {-2, -2, 0, 2, -2, 0, 2, 2, 0, -2, 2, 0};
+        const uint32_t idx[] = {0, 1, 2, 0, 2, 3};
+        const float uv[] = {0, 0, 1, 0, 1, 1, 0, 0, 1, 1, 0, 1};  // per corner of both triangles
+        const float swapped[] = {0, 0, 0, 1, 1, 1, 0, 0, 1, 1, 1, 0};
+        MeshInput m;
+        m.positions = pos;
+        m.vertex_count = 4;
+        m.indices = idx;
+        m.triangle_count = 2;
+        m.material_slots = {s.add_material(diffuse_material(Vec3f(0.5f), "a"))};
+        m.shading.uvs = requested ? std::vector<const float*>{swapped, uv} : std::vector<const float*>{swapped};
+        s.add_mesh(m);
+        s.camera = ortho_camera_looking_down(5.0f, 2.0f);
+        s.finalize();
+        RenderSettings rs = small_settings(8, 4);
+        rs.passes = pass_bit(RenderPass::UV);
+        Renderer r(s, rs);
+        r.render();
+        const auto uva = r.film().resolve(PassType::UV);
+        for (int y = 0; y < 8; ++y)
+            for (int x = 0; x < 8; ++x) {
+                const float* p = &uva[3 * size_t(y * 8 + x)];
+                if (!requested) {
+                    EXPECT_EQ(p[0] + p[1] + p[2], 0.0f);
+                    continue;
+                }
+                EXPECT_NEAR(p[0], (float(x) + 0.5f) / 8.0f, 0.5f / 8.0f + 1e-5f) << x << "," << y;
+                EXPECT_NEAR(p[1], 1.0f - (float(y) + 0.5f) / 8.0f, 0.5f / 8.0f + 1e-5f) << x << "," << y;
+                EXPECT_EQ(p[2], 1.0f);
+            }
+    }
+}
+
 TEST(Passes, NamesParseAndUnknownNamesAreNamed) {
     EXPECT_EQ(pass_mask_from_names({"DiffDir", "mist"}), pass_bit(RenderPass::DiffuseDirect) | pass_bit(RenderPass::Mist));
     try {
