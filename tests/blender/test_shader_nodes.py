@@ -84,3 +84,27 @@ def test_malformed_inputs_warn_and_render(blender, tmp_path):
     image = _rgb(tmp_path / "malformed_coherent.exr")
     # Cycles' missing-texture magenta, at emission strength 1 (1 + the dropped group's default 0).
     assert np.allclose(image, np.array([1.0, 0.0, 1.0]), atol=1e-6), image.mean(axis=(0, 1))
+
+
+def test_malformed_data_warns_and_stays_finite(blender, tmp_path):
+    """A zero-byte image file, NaN/infinite pixels (emission, base colour and normal map) and a
+    cycle of links: warnings name the material and the node; every pass stays finite.
+    (A node group containing itself cannot be built: Blender refuses to assign it.)"""
+    result = blender("--python", NODE_SCRIPT, "--", tmp_path, "malformed_data", timeout=300)
+    assert result.returncode == 0, result.describe()
+    log = result.stdout + result.stderr
+    expected = ["Material 'zero_size_image', node 'zero_size_image_tex', image 'zero_size': image cannot be read",
+                "Material 'nan_emission', node 'nan_emission_tex', image 'nan_pixels': image has 104 NaN or infinite",
+                "Material 'cyclic_links': link from node 'loop_"]
+    for text in expected:
+        assert text in log, f"missing warning {text!r}:\n{log[-3000:]}"
+    channels = bh.read_image_channels(tmp_path / "malformed_data_coherent.exr")
+    passes = {name.split(".")[-2] for name in channels}
+    assert {"Combined", "Normal", "DiffCol", "Emit"} <= passes, sorted(passes)
+    for name, plane in channels.items():
+        assert np.isfinite(plane).all(), f"{name}: {(~np.isfinite(plane)).sum()} non-finite values"
+    rgb = np.stack([channels[f"ViewLayer.Combined.{c}"] for c in "RGB"], axis=-1)
+    # Each of the four quads is seen: something in every quarter of the image.
+    w = rgb.shape[1]
+    for k in range(4):
+        assert rgb[:, k * w // 4:(k + 1) * w // 4].max() > 0.05, f"quad {k} renders black"
