@@ -1119,6 +1119,47 @@ def textured_scene():
     return scene
 
 
+def bump_normals(size, waves=2.0, amplitude=1.5):
+    """A float Non-Color tangent-space normal map of smooth bumps."""
+    image = bpy.data.images.new("bump_normals", size, size, float_buffer=True)
+    image.colorspace_settings.name = "Non-Color"
+    y, x = np.mgrid[0:size, 0:size].astype(np.float32) * (2.0 * np.pi * waves / size)
+    n = np.stack([amplitude * np.cos(x) * np.sin(y), amplitude * np.sin(x) * np.cos(y), np.ones_like(x)], axis=-1)
+    n /= np.linalg.norm(n, axis=-1, keepdims=True)
+    image.pixels.foreach_set(np.concatenate([0.5 * n + 0.5, np.ones((size, size, 1), np.float32)], -1).ravel())
+    return image
+
+
+def normal_mapped_scene():
+    """A smooth UV sphere with a tangent-space normal map of bumps, on a plain ground plane, sun-lit."""
+    scene = textured_scene()  # camera, sun, world, film and sample settings of the textured scene
+    for ob in list(scene.objects):
+        if ob.type == "MESH":
+            bpy.data.objects.remove(ob, do_unlink=True)
+    bpy.ops.mesh.primitive_plane_add(size=6.0)
+    ground = bpy.context.active_object
+    ground_mat = bpy.data.materials.new("ground")
+    ground_mat.use_nodes = True
+    ground_mat.node_tree.nodes["Principled BSDF"].inputs["Base Color"].default_value = (0.5, 0.45, 0.4, 1.0)
+    ground.data.materials.append(ground_mat)
+    bpy.ops.mesh.primitive_uv_sphere_add(segments=48, ring_count=24, radius=1.4, location=(0.0, 0.0, 1.4))
+    bpy.ops.object.shade_smooth()
+    sphere = bpy.context.active_object
+    material = bpy.data.materials.new("normal_mapped")
+    material.use_nodes = True
+    nt = material.node_tree
+    bsdf = nt.nodes["Principled BSDF"]
+    bsdf.inputs["Base Color"].default_value = (0.7, 0.3, 0.2, 1.0)
+    bsdf.inputs["Roughness"].default_value = 0.4
+    tex = node(nt, "ShaderNodeTexImage", interpolation="Linear", extension="REPEAT")
+    tex.name, tex.image = "normal_tex", bump_normals(256)
+    nmap = node(nt, "ShaderNodeNormalMap", space="TANGENT")
+    nt.links.new(tex.outputs["Color"], nmap.inputs["Color"])
+    nt.links.new(nmap.outputs["Normal"], bsdf.inputs["Normal"])
+    sphere.data.materials.append(material)
+    return scene
+
+
 def malformed_scene():
     """A missing image file and node groups nested deeper than the compiler's limit."""
     scene, plane, material = setup_scene()
@@ -1242,6 +1283,9 @@ def main():
     out_dir, names = args[0], args[1:]
     if names == ["scene_textured"]:
         render_both(textured_scene(), out_dir, "scene_textured")
+        return
+    if names == ["scene_normal_mapped"]:
+        render_both(normal_mapped_scene(), out_dir, "scene_normal_mapped")
         return
     if names == ["malformed"]:
         render_both(malformed_scene(), out_dir, "malformed", engines=("COHERENT",))

@@ -11,8 +11,9 @@
 # over a pixel (Geometry's Parametric and Tangent) are compared within the
 # most two points of one pixel can differ (node_scenes.SMOOTH_TOLERANCE).
 #
-# Whole scene: a sun-lit cube and ground plane with an image texture on UVs
-# through a Mapping node and a roughness from a node group, path traced by
+# Whole scenes: a sun-lit cube and ground plane with an image texture on UVs
+# through a Mapping node and a roughness from a node group; a smooth sphere
+# with a tangent-space normal map of bumps on a ground plane. Path traced by
 # both: per-channel means within 2 %, every 16x16 block within 8 %.
 #
 # Malformed input: a missing image file and node groups nested too deep
@@ -63,10 +64,11 @@ def test_node_matches_cycles(node_renders, case):
                            f"ours {ours[worst]:.7g}, Cycles {cycles[worst]:.7g}")
 
 
-def test_textured_scene_matches_cycles(blender, tmp_path):
-    result = blender("--python", NODE_SCRIPT, "--", tmp_path, "scene_textured", timeout=300)
+@pytest.mark.parametrize("scene", ["scene_textured", "scene_normal_mapped"])
+def test_whole_scene_matches_cycles(blender, tmp_path, scene):
+    result = blender("--python", NODE_SCRIPT, "--", tmp_path, scene, timeout=300)
     assert result.returncode == 0, result.describe()
-    cycles, ours = _rgb(tmp_path / "scene_textured_cycles.exr"), _rgb(tmp_path / "scene_textured_coherent.exr")
+    cycles, ours = _rgb(tmp_path / f"{scene}_cycles.exr"), _rgb(tmp_path / f"{scene}_coherent.exr")
     ratio = ours.mean(axis=(0, 1)) / cycles.mean(axis=(0, 1))
     assert np.all(np.abs(ratio - 1.0) <= 0.02), f"per-channel mean ratio ours/Cycles {ratio}"
     h, w, _ = cycles.shape
