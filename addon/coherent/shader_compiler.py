@@ -216,6 +216,7 @@ class GraphCompiler:
         self.color_index = color_index
         self._cache = {}          # (group path, node pointer, output name, bump axis) -> value
         self._warned_types = set()
+        self._warned_links = set()  # pointers of invalid links already reported
         self._group_path = ()     # the group nodes we are inside, outermost first
         self.consumer = ""        # which closure input is being compiled, for warnings
         self.bump_axis = 0        # compiling a Bump height at offset 1 (dx) or 2 (dy): position reads shift
@@ -239,6 +240,7 @@ class GraphCompiler:
         for _ in range(256):
             link = next((l for l in socket.links if _link_used(l)), None) if socket.is_linked else None
             if link is None:
+                self._warn_invalid_links(socket)
                 return None
             node = link.from_node
             if node.bl_idname == "NodeReroute":
@@ -263,6 +265,15 @@ class GraphCompiler:
             else:
                 return node, link.from_socket
         return None
+
+    def _warn_invalid_links(self, socket):
+        # Blender marks a link invalid when it closes a cycle (or joins sockets
+        # it cannot convert); Cycles drops it silently, we say so once.
+        for link in socket.links if socket.is_linked else ():
+            if not link.is_valid and link.as_pointer() not in self._warned_links:
+                self._warned_links.add(link.as_pointer())
+                self.warn(f"link from node '{link.from_node.name}' to node '{link.to_node.name}' is invalid "
+                          f"(a cycle, or sockets that cannot connect): ignored, using the input's default value")
 
     def _resolved_outside(self, socket, group):
         # Evaluate the outer socket in the outer context now, and hand back a

@@ -125,8 +125,10 @@ Vec3f normal_map(const Scene& scene, const ShadingGeometry& g, NormalMapSpace sp
     }
     if (!g.front) n = -n;
     if (strength != 1.0f) n = safe_normalize(g.n + (n - g.n) * std::max(strength, 0.0f));
-    if (is_black(n) || !is_finite(n)) n = g.n;
-    return n;
+    if (is_black(n) || !is_finite(n)) return g.n;
+    // As svm_node_normal_map ends: a mapped normal whose mirror direction
+    // would point under the surface is tilted back towards Ng.
+    return ensure_valid_reflection(g.ng, g.wo, n);
 }
 
 void image_texture(const Scene& scene, const ShaderInstr& in, const Registers& r) {

@@ -6,6 +6,7 @@
 #include <OpenImageIO/texture.h>
 
 #include <atomic>
+#include <cmath>
 #include <cstring>
 #include <map>
 
@@ -16,6 +17,17 @@ namespace {
 // --- in-memory images: an OIIO image format whose "files" are pixel buffers --
 
 constexpr const char* kMemoryExtension = "coherentpixels";
+
+// Sets NaN and infinite values to 0 (what Cycles' image loader does); returns how many.
+size_t zero_non_finite(std::vector<float>& values) {
+    size_t count = 0;
+    for (float& v : values)
+        if (!std::isfinite(v)) {
+            v = 0.0f;
+            ++count;
+        }
+    return count;
+}
 
 struct PixelBuffer {
     int width = 0, height = 0, channels = 0;
@@ -162,6 +174,12 @@ uint32_t TextureStore::add_pixels(const std::string& label, int width, int heigh
         buffer->height = height;
         buffer->channels = channels;
         buffer->pixels.assign(pixels, pixels + size_t(width) * size_t(height) * size_t(channels));
+        const size_t bad = zero_non_finite(buffer->pixels);
+        if (bad > 0) {
+            std::lock_guard<std::mutex> lock(warn_mutex_);
+            warnings_.push_back(label + ": image has " + std::to_string(bad) +
+                                " NaN or infinite pixel values; using 0 for them, as Cycles does");
+        }
         std::lock_guard<std::mutex> lock(registry_mutex());
         registry()[image->path] = std::move(buffer);
     }
@@ -202,6 +220,10 @@ void TextureStore::lookup(uint32_t index, float u, float v, TextureLookup how, f
     // Image rows run top to bottom; Blender's v runs bottom to top.
     oiio_->ts->texture(image->handle, oiio_->ts->get_perthread_info(), opt, u, 1.0f - v, 0.0f, 0.0f, 0.0f, 0.0f,
                        channels, texel);
+    // Files are not scanned when added (OIIO reads them lazily): a NaN or
+    // infinite texel must still not reach shading (Cycles zeroes them on load).
+    for (float& c : texel)
+        if (!std::isfinite(c)) c = 0.0f;
     if (channels <= 2) {  // grey (+ alpha), as Blender reads it
         rgba[3] = channels == 2 ? texel[1] : 1.0f;
         rgba[0] = rgba[1] = rgba[2] = texel[0];

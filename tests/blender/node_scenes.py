@@ -1119,6 +1119,47 @@ def textured_scene():
     return scene
 
 
+def bump_normals(size, waves=2.0, amplitude=1.5):
+    """A float Non-Color tangent-space normal map of smooth bumps."""
+    image = bpy.data.images.new("bump_normals", size, size, float_buffer=True)
+    image.colorspace_settings.name = "Non-Color"
+    y, x = np.mgrid[0:size, 0:size].astype(np.float32) * (2.0 * np.pi * waves / size)
+    n = np.stack([amplitude * np.cos(x) * np.sin(y), amplitude * np.sin(x) * np.cos(y), np.ones_like(x)], axis=-1)
+    n /= np.linalg.norm(n, axis=-1, keepdims=True)
+    image.pixels.foreach_set(np.concatenate([0.5 * n + 0.5, np.ones((size, size, 1), np.float32)], -1).ravel())
+    return image
+
+
+def normal_mapped_scene():
+    """A smooth UV sphere with a tangent-space normal map of bumps, on a plain ground plane, sun-lit."""
+    scene = textured_scene()  # camera, sun, world, film and sample settings of the textured scene
+    for ob in list(scene.objects):
+        if ob.type == "MESH":
+            bpy.data.objects.remove(ob, do_unlink=True)
+    bpy.ops.mesh.primitive_plane_add(size=6.0)
+    ground = bpy.context.active_object
+    ground_mat = bpy.data.materials.new("ground")
+    ground_mat.use_nodes = True
+    ground_mat.node_tree.nodes["Principled BSDF"].inputs["Base Color"].default_value = (0.5, 0.45, 0.4, 1.0)
+    ground.data.materials.append(ground_mat)
+    bpy.ops.mesh.primitive_uv_sphere_add(segments=48, ring_count=24, radius=1.4, location=(0.0, 0.0, 1.4))
+    bpy.ops.object.shade_smooth()
+    sphere = bpy.context.active_object
+    material = bpy.data.materials.new("normal_mapped")
+    material.use_nodes = True
+    nt = material.node_tree
+    bsdf = nt.nodes["Principled BSDF"]
+    bsdf.inputs["Base Color"].default_value = (0.7, 0.3, 0.2, 1.0)
+    bsdf.inputs["Roughness"].default_value = 0.4
+    tex = node(nt, "ShaderNodeTexImage", interpolation="Linear", extension="REPEAT")
+    tex.name, tex.image = "normal_tex", bump_normals(256)
+    nmap = node(nt, "ShaderNodeNormalMap", space="TANGENT")
+    nt.links.new(tex.outputs["Color"], nmap.inputs["Color"])
+    nt.links.new(nmap.outputs["Normal"], bsdf.inputs["Normal"])
+    sphere.data.materials.append(material)
+    return scene
+
+
 def malformed_scene():
     """A missing image file and node groups nested deeper than the compiler's limit."""
     scene, plane, material = setup_scene()
@@ -1157,6 +1198,77 @@ def malformed_scene():
     return scene
 
 
+PASSES = ("normal", "diffuse_direct", "diffuse_indirect", "diffuse_color", "glossy_direct", "glossy_color", "emit")
+
+
+def _quad(name, x, material):
+    bpy.ops.mesh.primitive_plane_add(size=0.45, location=(x, 0.0, 0.0))
+    ob = bpy.context.active_object
+    ob.name = name
+    ob.data.materials.append(material)
+
+
+def _nan_image():
+    """A float image held only inside Blender, every other pixel NaN (some channels +inf)."""
+    image = bpy.data.images.new("nan_pixels", 8, 8, float_buffer=True)
+    image.colorspace_settings.name = "Non-Color"
+    pixels = np.full((8, 8, 4), 0.5, np.float32)
+    pixels[::2, :, :3] = np.nan
+    pixels[1::4, ::2, 0] = np.inf  # 4 rows x 8 x 3 NaN + 2 rows x 4 inf = 104 bad values
+    image.pixels.foreach_set(pixels.ravel())
+    return image
+
+
+def malformed_data_scene(out_dir):
+    """Bad data rather than bad structure, each on its own quad with its own material:
+    a zero-byte image file, an image with NaN and infinite pixels (as emission and as
+    a Principled base colour and normal map), and a cycle of links between two nodes.
+    Rendered to a multilayer EXR with light passes, all of which must stay finite."""
+    scene, plane, material = setup_scene()
+    bpy.data.objects.remove(plane, do_unlink=True)
+    sun = bpy.data.objects.new("sun", bpy.data.lights.new("sun", "SUN"))
+    sun.rotation_euler = (0.3, 0.2, 0.0)
+    scene.collection.objects.link(sun)
+    empty_path = os.path.join(out_dir, "zero_size.png")
+    open(empty_path, "wb").close()
+    empty = bpy.data.images.load(empty_path)
+    empty.name = "zero_size"
+    nan_image = _nan_image()
+    for k, (name, image) in enumerate((("zero_size_image", empty), ("nan_emission", nan_image))):
+        mat = bpy.data.materials.new(name)
+        mat.use_nodes = True
+        nt, emission = fresh_tree(mat)
+        tex = node(nt, "ShaderNodeTexImage", interpolation="Closest")
+        tex.name, tex.image = f"{name}_tex", image
+        nt.links.new(tex.outputs["Color"], emission.inputs["Color"])
+        _quad(name, -0.75 + 0.5 * k, mat)
+    mat = bpy.data.materials.new("nan_principled")
+    mat.use_nodes = True
+    nt = mat.node_tree
+    tex = node(nt, "ShaderNodeTexImage", interpolation="Linear")
+    tex.name, tex.image = "nan_principled_tex", nan_image
+    nmap = node(nt, "ShaderNodeNormalMap")
+    nt.links.new(tex.outputs["Color"], nmap.inputs["Color"])
+    bsdf = nt.nodes["Principled BSDF"]
+    nt.links.new(tex.outputs["Color"], bsdf.inputs["Base Color"])
+    nt.links.new(nmap.outputs["Normal"], bsdf.inputs["Normal"])
+    _quad("nan_principled", 0.25, mat)
+    mat = bpy.data.materials.new("cyclic_links")
+    mat.use_nodes = True
+    nt, emission = fresh_tree(mat)
+    loop_a, loop_b = node(nt, "ShaderNodeMath", operation="ADD"), node(nt, "ShaderNodeMath", operation="ADD")
+    loop_a.name, loop_b.name = "loop_a", "loop_b"
+    nt.links.new(loop_a.outputs[0], loop_b.inputs[0])
+    nt.links.new(loop_b.outputs[0], loop_a.inputs[0])  # Blender keeps it, marked invalid
+    nt.links.new(loop_b.outputs[0], emission.inputs["Strength"])
+    _quad("cyclic_links", 0.75, mat)
+    scene.render.image_settings.file_format = "OPEN_EXR_MULTILAYER"
+    for name in PASSES:
+        setattr(scene.view_layers[0], f"use_pass_{name}", True)
+    scene.coherent.samples = 4
+    return scene
+
+
 def render_both(scene, out_dir, name, engines=("CYCLES", "COHERENT")):
     for engine in engines:
         scene.render.engine = engine
@@ -1172,8 +1284,14 @@ def main():
     if names == ["scene_textured"]:
         render_both(textured_scene(), out_dir, "scene_textured")
         return
+    if names == ["scene_normal_mapped"]:
+        render_both(normal_mapped_scene(), out_dir, "scene_normal_mapped")
+        return
     if names == ["malformed"]:
         render_both(malformed_scene(), out_dir, "malformed", engines=("COHERENT",))
+        return
+    if names == ["malformed_data"]:
+        render_both(malformed_data_scene(out_dir), out_dir, "malformed_data", engines=("COHERENT",))
         return
     scene, plane, material = setup_scene()
     all_cases = cases()

@@ -11,8 +11,9 @@
 # over a pixel (Geometry's Parametric and Tangent) are compared within the
 # most two points of one pixel can differ (node_scenes.SMOOTH_TOLERANCE).
 #
-# Whole scene: a sun-lit cube and ground plane with an image texture on UVs
-# through a Mapping node and a roughness from a node group, path traced by
+# Whole scenes: a sun-lit cube and ground plane with an image texture on UVs
+# through a Mapping node and a roughness from a node group; a smooth sphere
+# with a tangent-space normal map of bumps on a ground plane. Path traced by
 # both: per-channel means within 2 %, every 16x16 block within 8 %.
 #
 # Malformed input: a missing image file and node groups nested too deep
@@ -63,10 +64,11 @@ def test_node_matches_cycles(node_renders, case):
                            f"ours {ours[worst]:.7g}, Cycles {cycles[worst]:.7g}")
 
 
-def test_textured_scene_matches_cycles(blender, tmp_path):
-    result = blender("--python", NODE_SCRIPT, "--", tmp_path, "scene_textured", timeout=300)
+@pytest.mark.parametrize("scene", ["scene_textured", "scene_normal_mapped"])
+def test_whole_scene_matches_cycles(blender, tmp_path, scene):
+    result = blender("--python", NODE_SCRIPT, "--", tmp_path, scene, timeout=300)
     assert result.returncode == 0, result.describe()
-    cycles, ours = _rgb(tmp_path / "scene_textured_cycles.exr"), _rgb(tmp_path / "scene_textured_coherent.exr")
+    cycles, ours = _rgb(tmp_path / f"{scene}_cycles.exr"), _rgb(tmp_path / f"{scene}_coherent.exr")
     ratio = ours.mean(axis=(0, 1)) / cycles.mean(axis=(0, 1))
     assert np.all(np.abs(ratio - 1.0) <= 0.02), f"per-channel mean ratio ours/Cycles {ratio}"
     h, w, _ = cycles.shape
@@ -84,3 +86,27 @@ def test_malformed_inputs_warn_and_render(blender, tmp_path):
     image = _rgb(tmp_path / "malformed_coherent.exr")
     # Cycles' missing-texture magenta, at emission strength 1 (1 + the dropped group's default 0).
     assert np.allclose(image, np.array([1.0, 0.0, 1.0]), atol=1e-6), image.mean(axis=(0, 1))
+
+
+def test_malformed_data_warns_and_stays_finite(blender, tmp_path):
+    """A zero-byte image file, NaN/infinite pixels (emission, base colour and normal map) and a
+    cycle of links: warnings name the material and the node; every pass stays finite.
+    (A node group containing itself cannot be built: Blender refuses to assign it.)"""
+    result = blender("--python", NODE_SCRIPT, "--", tmp_path, "malformed_data", timeout=300)
+    assert result.returncode == 0, result.describe()
+    log = result.stdout + result.stderr
+    expected = ["Material 'zero_size_image', node 'zero_size_image_tex', image 'zero_size': image cannot be read",
+                "Material 'nan_emission', node 'nan_emission_tex', image 'nan_pixels': image has 104 NaN or infinite",
+                "Material 'cyclic_links': link from node 'loop_"]
+    for text in expected:
+        assert text in log, f"missing warning {text!r}:\n{log[-3000:]}"
+    channels = bh.read_image_channels(tmp_path / "malformed_data_coherent.exr")
+    passes = {name.split(".")[-2] for name in channels}
+    assert {"Combined", "Normal", "DiffCol", "Emit"} <= passes, sorted(passes)
+    for name, plane in channels.items():
+        assert np.isfinite(plane).all(), f"{name}: {(~np.isfinite(plane)).sum()} non-finite values"
+    rgb = np.stack([channels[f"ViewLayer.Combined.{c}"] for c in "RGB"], axis=-1)
+    # Each of the four quads is seen: something in every quarter of the image.
+    w = rgb.shape[1]
+    for k in range(4):
+        assert rgb[:, k * w // 4:(k + 1) * w // 4].max() > 0.05, f"quad {k} renders black"
