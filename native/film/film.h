@@ -32,29 +32,14 @@ enum class PassType : uint8_t {
     DenoisingAlbedo,
     DenoisingNormal,
     NoisyImage,
-    // Cycles' light and data passes (passes.h), in RenderPass order.
-    DiffuseDirect,
-    DiffuseIndirect,
-    DiffuseColor,
-    GlossyDirect,
-    GlossyIndirect,
-    GlossyColor,
-    TransmissionDirect,
-    TransmissionIndirect,
-    TransmissionColor,
-    Emission,
-    Environment,
-    AO,
-    Mist,
-    UV,
-    Position,
-    IndexOB,
-    IndexMA
+    // Cycles' light and data passes follow, one per RenderPass in its order
+    // (passes.h, the one list of them): pass_type() names them.
+    FirstRenderPass
 };
-constexpr PassType pass_type(RenderPass p) { return PassType(int(PassType::DiffuseDirect) + int(p)); }
-constexpr bool is_render_pass(PassType t) { return t >= PassType::DiffuseDirect; }
-constexpr RenderPass render_pass(PassType t) { return RenderPass(int(t) - int(PassType::DiffuseDirect)); }
-constexpr int kPassTypeCount = int(PassType::IndexMA) + 1;
+constexpr PassType pass_type(RenderPass p) { return PassType(int(PassType::FirstRenderPass) + int(p)); }
+constexpr bool is_render_pass(PassType t) { return t >= PassType::FirstRenderPass; }
+constexpr RenderPass render_pass(PassType t) { return RenderPass(int(t) - int(PassType::FirstRenderPass)); }
+constexpr int kPassTypeCount = int(PassType::FirstRenderPass) + kRenderPassCount;
 
 struct PassInfo {
     PassType type;

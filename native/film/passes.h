@@ -44,7 +44,7 @@
 namespace coherent {
 
 // The passes of this file, in PassType order (film.h) starting at
-// PassType::DiffuseDirect; bit i of a PassMask enables pass i.
+// PassType::FirstRenderPass; bit i of a PassMask enables pass i.
 enum class RenderPass : uint8_t {
     DiffuseDirect,
     DiffuseIndirect,

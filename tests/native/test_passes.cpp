@@ -106,9 +106,9 @@ TEST(Passes, DataPassesOnKnownGeometry) {
     Renderer r(s, rs);
     r.render();
     const Film& f = r.film();
-    const auto mist = f.resolve(PassType::Mist), pos = f.resolve(PassType::Position);
-    const auto ob = f.resolve(PassType::IndexOB), ma = f.resolve(PassType::IndexMA), ao = f.resolve(PassType::AO);
-    const auto dcol = f.resolve(PassType::DiffuseColor), gcol = f.resolve(PassType::GlossyColor);
+    const auto mist = f.resolve(pass_type(RenderPass::Mist)), pos = f.resolve(pass_type(RenderPass::Position));
+    const auto ob = f.resolve(pass_type(RenderPass::IndexOB)), ma = f.resolve(pass_type(RenderPass::IndexMA)), ao = f.resolve(pass_type(RenderPass::AO));
+    const auto dcol = f.resolve(pass_type(RenderPass::DiffuseColor)), gcol = f.resolve(pass_type(RenderPass::GlossyColor));
     for (int y = 2; y < 14; ++y)
         for (const int x : {3, 12}) {
             const size_t i = size_t(y) * 16 + size_t(x);
@@ -139,8 +139,8 @@ TEST(Passes, WorldPixels) {
     Renderer r(s, rs);
     r.render();
     const Film& f = r.film();
-    const auto mist = f.resolve(PassType::Mist), ob = f.resolve(PassType::IndexOB);
-    const auto env = f.resolve(PassType::Environment), ao = f.resolve(PassType::AO);
+    const auto mist = f.resolve(pass_type(RenderPass::Mist)), ob = f.resolve(pass_type(RenderPass::IndexOB));
+    const auto env = f.resolve(pass_type(RenderPass::Environment)), ao = f.resolve(pass_type(RenderPass::AO));
     for (size_t i = 0; i < 64; ++i) {
         EXPECT_EQ(mist[i], 1.0f);
         EXPECT_EQ(ob[i], 0.0f);
@@ -175,7 +175,7 @@ TEST(Passes, UvPassReadsTheActiveRenderMap) {
         rs.passes = pass_bit(RenderPass::UV);
         Renderer r(s, rs);
         r.render();
-        const auto uva = r.film().resolve(PassType::UV);
+        const auto uva = r.film().resolve(pass_type(RenderPass::UV));
         for (int y = 0; y < 8; ++y)
             for (int x = 0; x < 8; ++x) {
                 const float* p = &uva[3 * size_t(y * 8 + x)];
