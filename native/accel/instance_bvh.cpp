@@ -84,35 +84,34 @@ bool same_vertices(const Prototype& a, const Prototype& b) {
 }  // namespace
 
 void InstanceBvh::build(const Scene& scene, const BvhBuildOptions& options) {
-    options_ = options;
-    reused_prototypes_ = built_prototypes_ = 0;
-    prototypes_.assign(scene.prototypes.size(), nullptr);
-    for (const Instance& inst : scene.instances) {
-        std::shared_ptr<const Bvh>& bvh = prototypes_[inst.prototype];
-        if (bvh) continue;
-        bvh = build_prototype(scene.prototypes[inst.prototype], options);
-        ++built_prototypes_;
-    }
+    build_prototypes(scene, options, nullptr, nullptr);
     build_top_level(scene);
 }
 
 void InstanceBvh::build_reusing(const Scene& scene, const InstanceBvh& previous, const Scene& previous_scene) {
-    options_ = previous.options_;
+    build_prototypes(scene, previous.options_, &previous, &previous_scene);
+    build_top_level(scene);
+}
+
+void InstanceBvh::build_prototypes(const Scene& scene, const BvhBuildOptions& options, const InstanceBvh* previous,
+                                   const Scene* previous_scene) {
+    options_ = options;
     reused_prototypes_ = built_prototypes_ = 0;
     prototypes_.assign(scene.prototypes.size(), nullptr);
     // A BVH depends on its triangles' vertices alone (same options), so equal
     // vertex arrays may share one. Candidates by triangle count, then compared
     // exactly: a mesh the depsgraph did not change exports the same floats.
     std::unordered_multimap<size_t, uint32_t> by_count;
-    for (uint32_t q = 0; q < previous_scene.prototypes.size() && q < previous.prototypes_.size(); ++q)
-        if (previous.prototypes_[q]) by_count.emplace(previous_scene.prototypes[q].triangle_count(), q);
+    if (previous)
+        for (uint32_t q = 0; q < previous_scene->prototypes.size() && q < previous->prototypes_.size(); ++q)
+            if (previous->prototypes_[q]) by_count.emplace(previous_scene->prototypes[q].triangle_count(), q);
     for (const Instance& inst : scene.instances) {
         std::shared_ptr<const Bvh>& bvh = prototypes_[inst.prototype];
         if (bvh) continue;
         const Prototype& proto = scene.prototypes[inst.prototype];
         const auto [first, last] = by_count.equal_range(proto.triangle_count());
         for (auto it = first; it != last && !bvh; ++it)
-            if (same_vertices(proto, previous_scene.prototypes[it->second])) bvh = previous.prototypes_[it->second];
+            if (same_vertices(proto, previous_scene->prototypes[it->second])) bvh = previous->prototypes_[it->second];
         if (bvh) {
             ++reused_prototypes_;
         } else {
@@ -120,7 +119,6 @@ void InstanceBvh::build_reusing(const Scene& scene, const InstanceBvh& previous,
             ++built_prototypes_;
         }
     }
-    build_top_level(scene);
 }
 
 void InstanceBvh::build_top_level(const Scene& scene) {

@@ -117,6 +117,10 @@ private:
     void trace_stream(const Ray* rays, size_t n, Hit* hits, uint8_t* occluded, StreamStats* stats,
                       const float* times) const;
 
+    // A BVH for every prototype an instance uses: taken from `previous`
+    // (built over `previous_scene`) where the triangles are equal, else built.
+    void build_prototypes(const Scene& scene, const BvhBuildOptions& options, const InstanceBvh* previous,
+                          const Scene* previous_scene);
     // Placements and the top level over scene.instances, once every
     // prototype an instance uses has its BVH.
     void build_top_level(const Scene& scene);
