@@ -829,12 +829,20 @@ def _fresnel(gc, node, out):
     return gc.b.emit("FRESNEL", kind, [(x, 1), (_normal_input(gc, node), 3)], (1,))[0]
 
 
+# The per-vertex attribute the exporter computes for Geometry > Pointiness
+# (geometry_attributes.py; a leading dot as Blender's internal names).
+POINTINESS_ATTRIBUTE = ".coherent_pointiness"
+
+
 def _geometry(gc, node, out):
     name = out.identifier
     if name in GEOMETRY_OUTPUTS:
         return _geometry_output(gc, name)
-    # Pointiness and Random Per Island are per-vertex / per-island attributes
-    # Cycles computes on the mesh; not exported yet.
+    if name == "Pointiness" and gc.color_index is not None:
+        gc.b.uses.add("colors")
+        grey, _ = gc.b.emit("ATTRIBUTE", gc.bump_axis, [], (3, 1), data=gc.color_index(POINTINESS_ATTRIBUTE))
+        return gc.b.convert(grey, 1, as_color=False)
+    # Random Per Island is a per-island hash of Cycles' union-find roots: not exported yet.
     fallback = 0.5 if name == "Pointiness" else 0.0
     gc.warn(f"Geometry output '{name}' ('{node.name}') is not supported: using {fallback}")
     return fallback

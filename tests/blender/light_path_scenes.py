@@ -125,6 +125,37 @@ def build_sphere(kind):
     camera((0.0, -6.0, 0.0), (90.0, 0.0, 0.0), 400.0, (8 * 0.0586, 8 * 0.0664))
 
 
+def build_pointiness():
+    """A 2 x 2 grid, seen from above by an orthographic camera, its vertices
+    lifted by a smooth function and split along x = 0 (duplicate vertices,
+    which Cycles welds); Emission = Geometry > Pointiness."""
+    import bmesh
+    mesh = bpy.data.meshes.new("Bumpy")
+    bm = bmesh.new()
+    bmesh.ops.create_grid(bm, x_segments=12, y_segments=12, size=1.0)
+    for v in bm.verts:
+        x, y = v.co.x, v.co.y
+        v.co.z = 0.6 * math.sin(2.5 * x + 0.3) * math.cos(3.0 * y) + 0.2 * x * y
+    seam = [e for e in bm.edges if all(abs(v.co.x) < 1e-6 for v in e.verts)]
+    bmesh.ops.split_edges(bm, edges=seam)
+    bm.to_mesh(mesh)
+    bm.free()
+
+    def build(nt):
+        emission = nt.nodes.new("ShaderNodeEmission")
+        nt.links.new(nt.nodes.new("ShaderNodeNewGeometry").outputs["Pointiness"], emission.inputs["Color"])
+        return emission.outputs["Emission"]
+    mesh.materials.append(material("Pointiness", build))
+    scene.collection.objects.link(bpy.data.objects.new("Bumpy", mesh))
+    cam = bpy.data.cameras.new("Camera")
+    cam.type = "ORTHO"
+    cam.ortho_scale = 2.0
+    obj = bpy.data.objects.new("Camera", cam)
+    obj.location = (0.0, 0.0, 2.0)
+    scene.collection.objects.link(obj)
+    scene.camera = obj
+
+
 def render_case(case):
     # (A second read_factory_settings() would unregister the add-on.)
     for ob in list(scene.objects):
@@ -135,11 +166,13 @@ def render_case(case):
     scene.world = world
     if case == "shadow":
         build_shadow()
+    elif case == "pointiness":
+        build_pointiness()
     else:
         build_sphere(case)
     # Direct light only for the shadow case (deterministic up to pixel
     # coverage); the spheres need the bounces through the glass.
-    bounces = 0 if case == "shadow" else 4
+    bounces = 0 if case in ("shadow", "pointiness") else 4
     limits = dict(max_bounces=bounces, diffuse_bounces=bounces, glossy_bounces=bounces,
                   transmission_bounces=bounces, transparent_max_bounces=8)
 
