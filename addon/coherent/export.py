@@ -125,6 +125,9 @@ def _attribute_rgba(mesh, name):
 
 def _corner_colors(mesh, name, loops, warnings):
     """(M, 3, 4) per-corner RGBA of attribute `name` for add_mesh's `colors`; None if absent."""
+    if name == geometry_attributes.RANDOM_PER_ISLAND:
+        from . import native_module
+        return geometry_attributes.random_per_island_corners(mesh, native_module(), loops)
     found = _attribute_rgba(mesh, name)
     if found is None:
         return None

@@ -1,5 +1,6 @@
-"""Mesh attributes Cycles derives from the geometry itself, computed with numpy
-only for meshes whose materials read them (the Geometry node's Pointiness).
+"""Mesh attributes Cycles derives from the geometry itself, computed only for
+meshes whose materials read them: the Geometry node's Pointiness (numpy) and
+Random Per Island (native: scene/mesh_islands.h, a sequential union-find).
 
 They travel to the renderer as colour attributes under reserved names (a
 leading dot: Blender keeps such names for its internal attributes), so the
@@ -10,6 +11,7 @@ shader program reads them with the ATTRIBUTE instruction like any other
 import numpy as np
 
 from .shader_compiler import POINTINESS_ATTRIBUTE as POINTINESS
+from .shader_compiler import RANDOM_PER_ISLAND_ATTRIBUTE as RANDOM_PER_ISLAND
 
 _FLT_EPSILON = np.float32(np.finfo(np.float32).eps)
 
@@ -93,4 +95,19 @@ def pointiness_rgba(mesh):
         np.zeros(0, dtype=np.float32)
     rgba = np.ones((n, 4), dtype=np.float32)
     rgba[:, :3] = p[:, None]
+    return rgba
+
+
+def random_per_island_corners(mesh, native, loops):
+    """(M, 3, 4) per-corner grey RGBA of Random Per Island: one value per loop
+    triangle (`loops`: their loop indices), constant over it, as Cycles' face
+    attribute."""
+    edges = np.empty(len(mesh.edges) * 2, dtype=np.int32)
+    mesh.edges.foreach_get("vertices", edges)
+    vertex_of_loop = np.empty(len(mesh.loops), dtype=np.int32)
+    mesh.loops.foreach_get("vertex_index", vertex_of_loop)
+    first = vertex_of_loop[loops[0::3]]
+    values = native.random_per_island(len(mesh.vertices), edges, first)
+    rgba = np.ones((first.shape[0], 3, 4), dtype=np.float32)
+    rgba[..., :3] = values[:, None, None]
     return rgba

@@ -140,13 +140,38 @@ def build_pointiness():
     bmesh.ops.split_edges(bm, edges=seam)
     bm.to_mesh(mesh)
     bm.free()
+    mesh.materials.append(material("Pointiness", _emission_of_geometry("Pointiness")))
+    scene.collection.objects.link(bpy.data.objects.new("Bumpy", mesh))
+    _top_camera()
 
+
+def build_islands():
+    """One mesh of 16 separate small grids of varied resolution (islands whose
+    union-find representatives are not simply their first vertices), seen
+    from above by an orthographic camera; Emission = Random Per Island."""
+    import bmesh
+    bm = bmesh.new()
+    for i in range(4):
+        for j in range(4):
+            made = bmesh.ops.create_grid(bm, x_segments=1 + (i + j) % 3, y_segments=1 + (i * j) % 4, size=0.18)
+            bmesh.ops.translate(bm, verts=made["verts"], vec=(-0.75 + 0.5 * i, -0.75 + 0.5 * j, 0.0))
+    mesh = bpy.data.meshes.new("Islands")
+    bm.to_mesh(mesh)
+    bm.free()
+    mesh.materials.append(material("Islands", _emission_of_geometry("Random Per Island")))
+    scene.collection.objects.link(bpy.data.objects.new("Islands", mesh))
+    _top_camera()
+
+
+def _emission_of_geometry(output):
     def build(nt):
         emission = nt.nodes.new("ShaderNodeEmission")
-        nt.links.new(nt.nodes.new("ShaderNodeNewGeometry").outputs["Pointiness"], emission.inputs["Color"])
+        nt.links.new(nt.nodes.new("ShaderNodeNewGeometry").outputs[output], emission.inputs["Color"])
         return emission.outputs["Emission"]
-    mesh.materials.append(material("Pointiness", build))
-    scene.collection.objects.link(bpy.data.objects.new("Bumpy", mesh))
+    return build
+
+
+def _top_camera():
     cam = bpy.data.cameras.new("Camera")
     cam.type = "ORTHO"
     cam.ortho_scale = 2.0
@@ -168,11 +193,13 @@ def render_case(case):
         build_shadow()
     elif case == "pointiness":
         build_pointiness()
+    elif case == "islands":
+        build_islands()
     else:
         build_sphere(case)
     # Direct light only for the shadow case (deterministic up to pixel
     # coverage); the spheres need the bounces through the glass.
-    bounces = 0 if case in ("shadow", "pointiness") else 4
+    bounces = 0 if case in ("shadow", "pointiness", "islands") else 4
     limits = dict(max_bounces=bounces, diffuse_bounces=bounces, glossy_bounces=bounces,
                   transmission_bounces=bounces, transparent_max_bounces=8)
 

@@ -26,6 +26,10 @@
 #   values span 0.42-0.58; what remains is where in its pixel each sample
 #   fell (measured at most 1.4e-4 at 64 spp). Skipping the welding of the
 #   seam's duplicate vertices moves those vertices by up to 0.007.
+# - Geometry > Random Per Island (native/scene/mesh_islands.h): 16 separate
+#   grids in one mesh; constant per island, so every pixel whose 3x3
+#   neighbourhood is one island in Cycles' image must match within float
+#   rounding (1e-6): the hash of Cycles' own union-find representative.
 
 from pathlib import Path
 
@@ -38,7 +42,7 @@ SCRIPT = Path(__file__).with_name("light_path_scenes.py")
 SIZE = 64
 SAMPLES = 256
 SEEDS = (3, 4)
-CASES = ("shadow", "glass", "mirror", "pointiness")
+CASES = ("shadow", "glass", "mirror", "pointiness", "islands")
 HIGHLIGHT_TOLERANCE = 0.04
 BLOCK = 8
 BLOCK_TOLERANCE = 0.02
@@ -109,3 +113,17 @@ def test_pointiness_matches_cycles(blender, tmp_path):
     print(text)
     assert cycles.max() - cycles.min() > 0.1, text  # the grid is curved enough to test something
     assert diff.max() <= 5e-4, text
+
+
+def test_random_per_island_matches_cycles(blender, tmp_path):
+    ours = render(blender, bh.ENGINE_ID, tmp_path)["islands"].mean(axis=-1)
+    cycles = render(blender, "CYCLES", tmp_path)["islands"].mean(axis=-1)
+    windows = np.lib.stride_tricks.sliding_window_view(cycles, (3, 3))
+    inside = np.zeros_like(cycles, dtype=bool)
+    inside[1:-1, 1:-1] = (windows.max(axis=(2, 3)) == windows.min(axis=(2, 3))) & (cycles[1:-1, 1:-1] > 0)
+    diff = np.abs(ours - cycles)[inside]
+    values = np.unique(cycles[inside])
+    text = f"random per island: {inside.sum()} interior px, {values.size} island values, largest difference {diff.max()}"
+    print(text)
+    assert values.size >= 12, text
+    assert diff.max() <= 1e-6, text
