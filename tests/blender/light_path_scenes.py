@@ -12,6 +12,10 @@
 #           zoomed onto the light's reflection (a shifted 400 mm lens: the same
 #           rays as the 50 mm view, 8x magnified), so the highlight covers
 #           many pixels instead of a fraction of one.
+#   pointiness / islands
+#           Geometry > Pointiness and Random Per Island driving an Emission,
+#           seen from above by an orthographic camera (build_pointiness,
+#           build_islands).
 #
 #   blender -b --factory-startup --addons coherent --python light_path_scenes.py -- \
 #       ENGINE OUT SAMPLES SIZE SEED CASE [CASE ...]
