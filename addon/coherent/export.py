@@ -23,7 +23,7 @@ from itertools import chain
 
 import numpy as np
 
-from . import images, materials, motion
+from . import geometry_attributes, images, materials, motion
 from .world import export_world
 
 # Object types that evaluate to a surface we can triangulate.
@@ -96,6 +96,8 @@ _ATTRIBUTE_LAYOUT = {"FLOAT_COLOR": ("color", 4), "BYTE_COLOR": ("color_srgb", 4
 
 def _attribute_rgba(mesh, name):
     """(values (K, 4) linear RGBA, domain) of a named attribute or UV map; None if the mesh has neither."""
+    if name == geometry_attributes.POINTINESS:
+        return geometry_attributes.pointiness_rgba(mesh), "POINT"
     attribute = _named_attribute(mesh, name)
     if attribute is None:
         layer = mesh.uv_layers.get(name) if name else None
@@ -123,6 +125,9 @@ def _attribute_rgba(mesh, name):
 
 def _corner_colors(mesh, name, loops, warnings):
     """(M, 3, 4) per-corner RGBA of attribute `name` for add_mesh's `colors`; None if absent."""
+    if name == geometry_attributes.RANDOM_PER_ISLAND:
+        from . import native_module
+        return geometry_attributes.random_per_island_corners(mesh, native_module(), loops)
     found = _attribute_rgba(mesh, name)
     if found is None:
         return None

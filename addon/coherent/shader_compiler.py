@@ -829,12 +829,22 @@ def _fresnel(gc, node, out):
     return gc.b.emit("FRESNEL", kind, [(x, 1), (_normal_input(gc, node), 3)], (1,))[0]
 
 
+# The attributes the exporter computes for Geometry > Pointiness (per vertex)
+# and Random Per Island (per triangle) (geometry_attributes.py; a leading dot
+# as Blender's internal names).
+POINTINESS_ATTRIBUTE = ".coherent_pointiness"
+RANDOM_PER_ISLAND_ATTRIBUTE = ".coherent_random_per_island"
+
+
 def _geometry(gc, node, out):
     name = out.identifier
     if name in GEOMETRY_OUTPUTS:
         return _geometry_output(gc, name)
-    # Pointiness and Random Per Island are per-vertex / per-island attributes
-    # Cycles computes on the mesh; not exported yet.
+    attribute = {"Pointiness": POINTINESS_ATTRIBUTE, "Random Per Island": RANDOM_PER_ISLAND_ATTRIBUTE}.get(name)
+    if attribute is not None and gc.color_index is not None:
+        gc.b.uses.add("colors")
+        grey, _ = gc.b.emit("ATTRIBUTE", gc.bump_axis, [], (3, 1), data=gc.color_index(attribute))
+        return gc.b.convert(grey, 1, as_color=False)
     fallback = 0.5 if name == "Pointiness" else 0.0
     gc.warn(f"Geometry output '{name}' ('{node.name}') is not supported: using {fallback}")
     return fallback

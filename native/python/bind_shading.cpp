@@ -4,6 +4,7 @@
 
 #include <sstream>
 
+#include "scene/mesh_islands.h"
 #include "shader/eval.h"
 #include "shader/textures.h"
 
@@ -218,6 +219,30 @@ in texture_stats()['warnings'] under `label`.)doc");
         py::arg("program"),
         "Runs a program of constant inputs (no geometry, no images); returns its register file. "
         "The shader compiler folds constant subgraphs with it.");
+    m.def(
+        "random_per_island",
+        [](int64_t vertex_count, const IntArray& edges, const IntArray& first_vertex) {
+            if (vertex_count < 0 || edges.size() % 2 != 0) throw py::value_error("random_per_island: bad sizes");
+            auto in_range = [&](int64_t v) { return v >= 0 && v < vertex_count; };
+            std::vector<std::pair<size_t, size_t>> pairs(size_t(edges.size() / 2));
+            const int64_t* e = edges.data();
+            for (size_t i = 0; i < pairs.size(); ++i) {
+                if (!in_range(e[2 * i]) || !in_range(e[2 * i + 1]))
+                    throw py::value_error("random_per_island: an edge names a vertex out of range");
+                pairs[i] = {size_t(e[2 * i]), size_t(e[2 * i + 1])};
+            }
+            std::vector<size_t> firsts(size_t(first_vertex.size()));
+            for (size_t t = 0; t < firsts.size(); ++t) {
+                if (!in_range(first_vertex.data()[t]))
+                    throw py::value_error("random_per_island: a triangle names a vertex out of range");
+                firsts[t] = size_t(first_vertex.data()[t]);
+            }
+            const std::vector<float> values = random_per_island(size_t(vertex_count), pairs, firsts);
+            return py::array_t<float>(py::ssize_t(values.size()), values.data());
+        },
+        py::arg("vertex_count"), py::arg("edges"), py::arg("first_vertex"),
+        "Geometry > Random Per Island as Cycles 3.4 computes it (scene/mesh_islands.h): per triangle, from the "
+        "mesh's edges (vertex index pairs, in edge order) and each triangle's first vertex.");
     scene.def("texture_stats", &texture_stats, "{'images', 'memory_bytes', 'warnings'} of the scene's images.");
 }
 

@@ -321,6 +321,18 @@ inline LightPathInfo light_path_info(const PathState& s, float t) {
     return info;
 }
 
+// The same at a surface a shadow ray from the current vertex meets at
+// distance t (transparent shadows, transparency.h): Cycles evaluates the
+// shader there with PATH_RAY_SHADOW as the only flag, so Is Shadow Ray reads
+// 1 and every other ray type 0; the depths are the casting vertex's (Ray
+// Depth one more, in light_path()).
+inline LightPathInfo shadow_path_info(const PathState& s, float t) {
+    LightPathInfo info = light_path_info(s, t);
+    info.flags = LightPathInfo::kShadow;
+    info.transparent_depth = s.transparent_bounce;
+    return info;
+}
+
 // Cycles' compact ray differential dP at a hit: the width a pixel covers
 // there, as seen from the camera (later bounces keep the camera's spread).
 inline float pixel_footprint(const Scene& scene, const RenderSettings& rs, const Vec3f& p) {
@@ -332,8 +344,10 @@ inline float pixel_footprint(const Scene& scene, const RenderSettings& rs, const
 // The material at sp: its constants, or for a node graph with non-constant
 // inputs what its shader program computes there (built in `scratch`; a
 // normal map also replaces sp.n). Constant materials take the first return.
+// shadow: the Light Path node's view for a shadow ray (else that of s.ray).
 COHERENT_ALWAYS_INLINE const Material& material_at(const PathContext& ctx, const PathState& s, const Hit& hit,
-                                                    SurfacePoint& sp, std::optional<Material>& scratch) {
+                                                    SurfacePoint& sp, std::optional<Material>& scratch,
+                                                    const LightPathInfo* shadow = nullptr) {
     const Scene& scene = *ctx.scene;
     const Material& base = scene.materials[sp.material];
     if (!base.program) return base;
@@ -357,7 +371,7 @@ COHERENT_ALWAYS_INLINE const Material& material_at(const PathContext& ctx, const
     LightPathInfo path;
     if (base.program->uses_light_path) {
         // Cycles starts camera rays on the near clip plane: lengths count from there.
-        path = light_path_info(s, hit.t - s.ray.tmin);
+        path = shadow ? *shadow : light_path_info(s, hit.t - s.ray.tmin);
         g.path = &path;
     }
     if (base.program->uses_bump) g.footprint = pixel_footprint(scene, *ctx.settings, sp.p);
@@ -466,7 +480,8 @@ COHERENT_ALWAYS_INLINE Vec3f transparency_at(const PathContext& ctx, const PathS
     SurfacePoint sp = surface_point(*ctx.scene, r, s.time, hit);
     if (!ctx.scene->materials[sp.material].has_closure(ClosureKind::Transparent)) return Vec3f(0.0f);
     std::optional<Material> scratch;
-    return material_transparency(material_at(ctx, s, hit, sp, scratch));
+    const LightPathInfo shadow = shadow_path_info(s, hit.t);  // shadow rays start at their vertex
+    return material_transparency(material_at(ctx, s, hit, sp, scratch, &shadow));
 }
 
 // Scenes with transparent surfaces: the queued shadow ray resolved here, in
