@@ -10,9 +10,10 @@
 #   are compared at 256 spp. Its Ind passes are dominated by a few caustic
 #   fireflies at any affordable sample count (at 1024 spp: GlossInd 0.6 %,
 #   DiffInd 1-3 %, TransInd 3 % apart), and its GlossDir by the small
-#   reflections of the point light in the glass sphere, which differ
-#   between the engines in Combined itself (brighter in Cycles), so those
-#   are not asserted there;
+#   reflections of the point light in the glass sphere: they cover a
+#   fraction of a pixel, so each engine's value there is mostly noise (no
+#   bias: docs/results/point_light_reflections.md, test_light_paths.py
+#   compares them magnified), so those are not asserted there;
 # - ours add up to our Combined per pixel: (Dir + Ind) x Col + Emit + Env;
 # - data passes (Mist, Position, UV, Depth, IndexOB, IndexMA): per pixel, on
 #   pixels inside one object (Cycles' IndexOB the same in the 3 x 3
