@@ -316,6 +316,7 @@ class VIEWLAYER_PT_coherent_passes_data(CoherentButtonsPanel, bpy.types.Panel):
         col.prop(view_layer, "use_pass_mist")
         col.prop(view_layer, "use_pass_position")
         col.prop(view_layer, "use_pass_normal")
+        col.prop(view_layer, "use_pass_vector")
         col.prop(view_layer, "use_pass_uv")
         col.prop(context.scene.coherent, "use_pass_error")
         col.prop(context.scene.coherent, "use_pass_denoising_data")
