@@ -72,6 +72,16 @@ _PASSES.update({name: (chan_id, kind) for _, name, chan_id, kind in VIEW_LAYER_P
 _MIST_FALLOFF = {"QUADRATIC": 2.0, "LINEAR": 1.0, "INVERSE_QUADRATIC": 0.5}
 
 
+def stores_denoising_data(scene, view_layer):
+    """Whether the Denoising Albedo and Normal passes are written: Cycles'
+    View Layer tick (Passes > Data > Denoising Data,
+    view_layer.cycles.denoising_store_passes, there while the Cycles add-on
+    is enabled), or this engine's scene-wide setting of the same name, which
+    earlier files may have ticked; either one turns them on."""
+    cycles = getattr(view_layer, "cycles", None)
+    return bool(getattr(cycles, "denoising_store_passes", False)) or scene.coherent.use_pass_denoising_data
+
+
 def enabled_passes(view_layer):
     """Names of the Cycles passes ticked in `view_layer`."""
     return [name for prop, name, _, _ in VIEW_LAYER_PASSES if getattr(view_layer, prop, False)]
@@ -358,7 +368,7 @@ class CoherentRenderEngine(bpy.types.RenderEngine):
             self.register_pass(scene, renderlayer, "SIMD Utilisation", 1, "X", "VALUE")
         # Denoising: Combined is denoised; the noisy image and, on request,
         # the features the denoiser used stay available.
-        if scene is not None and scene.coherent.use_pass_denoising_data:
+        if scene is not None and stores_denoising_data(scene, renderlayer):
             self.register_pass(scene, renderlayer, "Denoising Albedo", 3, "RGB", "COLOR")
             self.register_pass(scene, renderlayer, "Denoising Normal", 3, "XYZ", "VECTOR")
         if scene is not None and scene.coherent.use_denoising:
@@ -434,6 +444,7 @@ class CoherentRenderEngine(bpy.types.RenderEngine):
         if cameras is not None:
             nscene.set_camera_frames(*cameras)
         kwargs = props.renderer_kwargs(scene)
+        kwargs["denoising_data"] = stores_denoising_data(scene, view_layer)
         build_start = time.perf_counter()
         renderer = native.Renderer(
             nscene, width=width, height=height, spp=props.samples,

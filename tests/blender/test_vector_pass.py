@@ -13,6 +13,8 @@
 # error 0.054 pixels on the turning cube (vectors of about 10 pixels) and
 # less on the others; the mean error per object must stay under 0.1 pixels. A sign, axis, frame or
 # projection mix-up fails by whole pixels.
+# The same renders tick Cycles' View Layer "Denoising Data" (not our
+# scene-wide setting): both engines then write Denoising Albedo and Normal.
 
 import numpy as np
 import pytest
@@ -48,3 +50,9 @@ def test_vector_pass_matches_cycles_per_pixel(renders):
     world = interior(index) & (index == 0)
     assert (a[world] == 0.0).all()
 
+
+def test_view_layer_denoising_data_tick_writes_the_feature_passes(renders):
+    for engine in ("cycles", "coherent"):
+        albedo = bh.find_channels(renders[engine], "Denoising Albedo", "RGB")
+        normal = bh.find_channels(renders[engine], "Denoising Normal", "XYZ")
+        assert albedo.max() > 0.1 and np.abs(normal).max() > 0.5, engine

@@ -4,7 +4,7 @@
 #
 # Builds a scene whose objects and camera move between frames 1 and 3
 # (linear keyframes) and renders frame 2 with the Vector pass and IndexOB
-# ticked, motion blur off, with each ENGINE (CYCLES, COHERENT) to
+# ticked (and Cycles' Denoising Data tick), motion blur off, with each ENGINE (CYCLES, COHERENT) to
 # OUT_DIR/<engine>.exr (multilayer). What moves:
 # - a cube (IndexOB 1), translated in x and z and turned about z;
 # - two linked copies of a second cube (IndexOB 2), instances of one mesh in
@@ -79,6 +79,8 @@ render.image_settings.color_depth = "32"
 view_layer = scene.view_layers[0]
 view_layer.use_pass_vector = True
 view_layer.use_pass_object_index = True
+view_layer.cycles.denoising_store_passes = True  # Cycles' tick only: scene.coherent's stays off
+assert not scene.coherent.use_pass_denoising_data
 configure_cycles_reference(scene, samples).filter_width = 0.01
 scene.coherent.samples = samples
 
