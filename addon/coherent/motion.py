@@ -17,7 +17,9 @@ at the current frame for those.
 
 The Vector pass (frame_matrices) reads the same transforms, and the
 camera's, one frame before and one after the current one, as Cycles does
-for its motion pass whether motion blur is on or off.
+for its motion pass. Cycles has that pass only with motion blur off (its
+Passes panel greys the tick out otherwise); we fill it either way, the hit
+point then being the one seen at the sample's shutter time.
 """
 import math
 
