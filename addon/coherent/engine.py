@@ -49,6 +49,7 @@ _PASSES = {
 VIEW_LAYER_PASSES = (
     ("use_pass_mist", "Mist", "Z", "VALUE"),
     ("use_pass_position", "Position", "XYZ", "VECTOR"),
+    ("use_pass_vector", "Vector", "XYZW", "VECTOR"),
     ("use_pass_uv", "UV", "UVA", "VECTOR"),
     ("use_pass_object_index", "IndexOB", "X", "VALUE"),
     ("use_pass_material_index", "IndexMA", "X", "VALUE"),
@@ -69,6 +70,16 @@ _PASSES.update({name: (chan_id, kind) for _, name, chan_id, kind in VIEW_LAYER_P
 
 # Blender's World > Mist falloff as Cycles' exponent.
 _MIST_FALLOFF = {"QUADRATIC": 2.0, "LINEAR": 1.0, "INVERSE_QUADRATIC": 0.5}
+
+
+def stores_denoising_data(scene, view_layer):
+    """Whether the Denoising Albedo and Normal passes are written: Cycles'
+    View Layer tick (Passes > Data > Denoising Data,
+    view_layer.cycles.denoising_store_passes, there while the Cycles add-on
+    is enabled), or this engine's scene-wide setting of the same name, which
+    earlier files may have ticked; either one turns them on."""
+    cycles = getattr(view_layer, "cycles", None)
+    return bool(getattr(cycles, "denoising_store_passes", False)) or scene.coherent.use_pass_denoising_data
 
 
 def enabled_passes(view_layer):
@@ -357,7 +368,7 @@ class CoherentRenderEngine(bpy.types.RenderEngine):
             self.register_pass(scene, renderlayer, "SIMD Utilisation", 1, "X", "VALUE")
         # Denoising: Combined is denoised; the noisy image and, on request,
         # the features the denoiser used stay available.
-        if scene is not None and scene.coherent.use_pass_denoising_data:
+        if scene is not None and stores_denoising_data(scene, renderlayer):
             self.register_pass(scene, renderlayer, "Denoising Albedo", 3, "RGB", "COLOR")
             self.register_pass(scene, renderlayer, "Denoising Normal", 3, "XYZ", "VECTOR")
         if scene is not None and scene.coherent.use_denoising:
@@ -412,12 +423,9 @@ class CoherentRenderEngine(bpy.types.RenderEngine):
             width, height = self.resolution_x, self.resolution_y
         border = border_pixels(render, width, height)
 
-        moving = {}
-        if render.use_motion_blur:
-            self.update_stats("", "Motion blur: evaluating the shutter")
-            moving = motion.shutter_matrices(self, depsgraph, export.MOTION_TYPES)
+        moving, frame_motion, cameras = self._evaluate_motion(depsgraph)
         self.update_stats("", "Exporting scene")
-        exported = self._export(native, depsgraph, width, height, moving)
+        exported = self._export(native, depsgraph, width, height, moving, frame_motion)
         for warning in exported.warnings:
             self._warn(warning)
         if self.test_break():
@@ -433,13 +441,17 @@ class CoherentRenderEngine(bpy.types.RenderEngine):
         passes, cryptomatte = enabled_passes(view_layer), cryptomatte_types(view_layer)
         if passes or cryptomatte:
             set_data_pass_inputs(nscene, scene)
+        if cameras is not None:
+            nscene.set_camera_frames(*cameras)
+        kwargs = props.renderer_kwargs(scene)
+        kwargs["denoising_data"] = stores_denoising_data(scene, view_layer)
         build_start = time.perf_counter()
         renderer = native.Renderer(
             nscene, width=width, height=height, spp=props.samples,
             seed=props.seed_for_frame(scene.frame_current), border=border,
             progressive_display=False, target_error=props.target_error, time_limit=props.time_limit,
             denoise=props.use_denoising, passes=passes, cryptomatte=cryptomatte,
-            cryptomatte_levels=min(16, view_layer.pass_cryptomatte_depth), **props.renderer_kwargs(scene))
+            cryptomatte_levels=min(16, view_layer.pass_cryptomatte_depth), **kwargs)
         build_seconds = time.perf_counter() - build_start
         self._renderer = renderer
         reuse = self._persistent.report if self._persistent is not None else None
@@ -507,7 +519,21 @@ class CoherentRenderEngine(bpy.types.RenderEngine):
                 print(message)
                 self.report({"INFO"}, message)
 
-    def _export(self, native, depsgraph, width, height, moving):
+    def _evaluate_motion(self, depsgraph):
+        """(shutter motion, frame motion, camera frames) of motion.py: what
+        motion blur and the Vector pass need, each only when turned on."""
+        scene = depsgraph.scene
+        moving, frame_motion, cameras = {}, {}, None
+        if scene.render.use_motion_blur:
+            self.update_stats("", "Motion blur: evaluating the shutter")
+            moving = motion.shutter_matrices(self, depsgraph, export.MOTION_TYPES)
+        if depsgraph.view_layer.use_pass_vector:
+            self.update_stats("", "Vector pass: evaluating the previous and next frames")
+            frame_motion, cameras = motion.frame_matrices(self, depsgraph, export.MOTION_TYPES,
+                                                          self.camera_override or scene.camera)
+        return moving, frame_motion, cameras
+
+    def _export(self, native, depsgraph, width, height, moving, frame_motion):
         """Exports the depsgraph; with persistent data, through the kept PersistentScene."""
         scene = depsgraph.scene
         if not scene.render.use_persistent_data:
@@ -515,7 +541,7 @@ class CoherentRenderEngine(bpy.types.RenderEngine):
                 self._persistent.free()
                 self._persistent = None
             return export.export_scene(native, depsgraph, width, height, camera_override=self.camera_override,
-                                       cancelled=self.test_break, motion=moving)
+                                       cancelled=self.test_break, motion=moving, frame_motion=frame_motion)
         if self._persistent is None:
             self._persistent = persistent.PersistentScene()
         # What the kept scene and BVH are valid for: another scene or view
@@ -524,7 +550,7 @@ class CoherentRenderEngine(bpy.types.RenderEngine):
                     repr(sorted(scene.coherent.renderer_kwargs(scene).items())))
         return self._persistent.export(native, depsgraph, width, height, identity,
                                        camera_override=self.camera_override, cancelled=self.test_break,
-                                       motion=moving)
+                                       motion=moving, frame_motion=frame_motion)
 
     def _progress_callback(self, renderer, result, native, target_error, convergence):
         """The per-pass callback; appends (seconds, spp, error) to `convergence`

@@ -366,10 +366,12 @@ class InstanceGroup:
     Each placement costs one matrix copy in a list; the list becomes one
     float32 array when the group is added to the scene. With motion blur,
     `closes` holds every placement's transform at shutter close (the open one
-    for those that stand still) once any placement moves.
+    for those that stand still) once any placement moves. For the Vector
+    pass, `frames` likewise holds every placement's (previous, next frame)
+    matrices once any placement moves between frames.
     """
 
-    __slots__ = ("arrays", "mesh_key", "owner", "name", "slots", "material_ids", "matrices", "closes")
+    __slots__ = ("arrays", "mesh_key", "owner", "name", "slots", "material_ids", "matrices", "closes", "frames")
 
     def __init__(self, arrays, mesh_key, owner, name, slots, material_ids):
         self.arrays = arrays
@@ -380,13 +382,27 @@ class InstanceGroup:
         self.material_ids = material_ids
         self.matrices = []
         self.closes = None
+        self.frames = None
 
-    def add(self, matrix, close=None):
+    def add(self, matrix, close=None, frames=None):
         self.matrices.append(matrix.copy())
         if close is not None and self.closes is None:
             self.closes = self.matrices[:-1]  # the earlier placements stand still
         if self.closes is not None:
             self.closes.append(self.matrices[-1] if close is None else close)
+        if frames is not None and self.frames is None:
+            self.frames = [(m, m) for m in self.matrices[:-1]]
+        if self.frames is not None:
+            self.frames.append((self.matrices[-1],) * 2 if frames is None else frames)
+
+    def frame_array(self, k=None):
+        """The (previous, next frame) matrices as float32 (K, 2, 4, 4), or
+        placement k's as (2, 4, 4); None when no placement moves."""
+        if self.frames is None:
+            return None
+        if k is not None:
+            return np.asarray(self.frames[k], dtype=np.float32)
+        return np.asarray(self.frames, dtype=np.float32).reshape(len(self.frames), 2, 4, 4)
 
     @staticmethod
     def matrix_array(matrices):
@@ -411,11 +427,14 @@ class SceneExporter:
     """Converts one evaluated depsgraph into a native Scene."""
 
     def __init__(self, native, depsgraph, width, height, camera_override=None, need_camera=True, mesh_cache=None,
-                 motion=None, separate_objects=frozenset()):
+                 motion=None, separate_objects=frozenset(), frame_motion=None):
         self.native = native
         # Object motion blur: {motion.instance_key: (matrix_open, matrix_close)}
         # for the instances that move during the shutter (motion.py).
         self.motion = motion or {}
+        # Vector pass: {motion.instance_key: (matrix_previous, matrix_next)}
+        # for the instances that move between frames (motion.frame_matrices).
+        self.frame_motion = frame_motion or {}
         self.depsgraph = depsgraph
         self.width = width
         self.height = height
@@ -568,18 +587,20 @@ class SceneExporter:
         group = self._group_for(inst, ob)
         if group is None:
             return
-        if self.motion:
-            moving = self.motion.get(motion.instance_key(inst, ob))
-            if moving is not None:
-                group.add(*moving)
-                return
-        group.add(matrix)
+        key = motion.instance_key(inst, ob) if self.motion or self.frame_motion else None
+        frames = self.frame_motion.get(key) if self.frame_motion else None
+        moving = self.motion.get(key) if self.motion else None
+        if moving is not None:
+            group.add(*moving, frames=frames)
+            return
+        group.add(matrix, frames=frames)
 
-    def _add_flattened(self, group, matrix, matrix_close=None):
+    def _add_flattened(self, group, matrix, matrix_close=None, frame_matrices=None):
         arrays = group.arrays
         self.result.scene.add_mesh(group.name, arrays.positions, arrays.indices, np.asarray(matrix, dtype=np.float32),
                                    normals=arrays.normals, material_ids=group.material_ids,
-                                   material_slots=group.slots, matrix_close=matrix_close, **(arrays.shading or {}))
+                                   material_slots=group.slots, matrix_close=matrix_close,
+                                   frame_matrices=frame_matrices, **(arrays.shading or {}))
         self.flattened_keys.append(group.mesh_key)
         self.result.instances += 1
 
@@ -599,7 +620,7 @@ class SceneExporter:
                 continue
             if placements[group.mesh_key] == 1 and group.owner not in self.separate_objects:
                 for k, matrix in enumerate(group.matrices):
-                    self._add_flattened(group, matrix, group.closes[k] if group.closes else None)
+                    self._add_flattened(group, matrix, group.closes[k] if group.closes else None, group.frame_array(k))
                 group.matrices = []
                 continue
             arrays = group.arrays
@@ -611,7 +632,7 @@ class SceneExporter:
             if proto >= 0:
                 closes = None if group.closes is None else group.matrix_array(group.closes)
                 scene.add_instances(proto, group.matrix_array(group.matrices), material_slots=group.prototype_slots(),
-                                    name=group.name, matrices_close=closes)
+                                    name=group.name, matrices_close=closes, frame_matrices=group.frame_array())
             self.result.instances += len(group.matrices)
             group.matrices = []
 
@@ -786,14 +807,16 @@ def scan_instances(depsgraph):
 
 
 def export_scene(native, depsgraph, width, height, camera_override=None, cancelled=lambda: False,
-                 need_camera=True, mesh_cache=None, motion=None):
+                 need_camera=True, mesh_cache=None, motion=None, frame_motion=None):
     """Exports the evaluated depsgraph; returns an ExportResult (scene, warnings, counts, seconds).
 
     width/height (pixels) only serve the camera's sensor fit; with
     need_camera=False the scene camera is ignored (viewports). `mesh_cache`
     (a MeshCache) lets an interactive session reuse extracted meshes.
     `motion` (motion.shutter_matrices) makes the instances it lists move
-    during the shutter (object motion blur).
+    during the shutter (object motion blur); `frame_motion`
+    (motion.frame_matrices) gives those it lists their Vector pass motion.
     """
-    exporter = SceneExporter(native, depsgraph, width, height, camera_override, need_camera, mesh_cache, motion)
+    exporter = SceneExporter(native, depsgraph, width, height, camera_override, need_camera, mesh_cache, motion,
+                             frame_motion=frame_motion)
     return exporter.export(cancelled)

@@ -14,6 +14,12 @@ Supported: transform motion of objects and their instances (location,
 rotation, scale, parenting, constraints). Not supported: deformation motion
 (armatures, shape keys, modifiers) and camera motion; the scene is exported
 at the current frame for those.
+
+The Vector pass (frame_matrices) reads the same transforms, and the
+camera's, one frame before and one after the current one, as Cycles does
+for its motion pass. Cycles has that pass only with motion blur off (its
+Passes panel greys the tick out otherwise); we fill it either way, the hit
+point then being the one seen at the sample's shutter time.
 """
 import math
 
@@ -47,6 +53,43 @@ def _matrices(depsgraph, mesh_types):
         if ob.type in mesh_types:
             out[instance_key(inst, ob)] = np.array(inst.matrix_world, dtype=np.float32)
     return out
+
+
+def _camera_matrix(depsgraph, camera):
+    return None if camera is None else np.array(camera.evaluated_get(depsgraph).matrix_world, dtype=np.float32)
+
+
+def frame_matrices(engine, depsgraph, mesh_types, camera):
+    """The Vector pass's motion: ({instance key: (matrix_previous,
+    matrix_next)} for the instances whose transform differs one frame
+    before or after the current one, and (camera_previous, camera_next), or
+    None when `camera` (an object, or None) stands still.
+
+    Leaves the depsgraph evaluated at the current frame again.
+    """
+    scene = depsgraph.scene
+    frame, subframe = scene.frame_current, scene.frame_subframe
+    camera = camera.original if camera is not None else None  # evaluated anew at each frame
+    now = _matrices(depsgraph, mesh_types)
+    camera_now = _camera_matrix(depsgraph, camera)
+    try:
+        _set_time(engine, frame + subframe - 1.0)
+        previous, camera_previous = _matrices(depsgraph, mesh_types), _camera_matrix(depsgraph, camera)
+        _set_time(engine, frame + subframe + 1.0)
+        following, camera_next = _matrices(depsgraph, mesh_types), _camera_matrix(depsgraph, camera)
+    finally:
+        engine.frame_set(int(frame), float(subframe))
+    moving = {}
+    for key, matrix in now.items():
+        # An instance missing one frame away is taken as still (Cycles: no motion data, no motion).
+        before, after = previous.get(key, matrix), following.get(key, matrix)
+        if not (np.array_equal(before, matrix) and np.array_equal(after, matrix)):
+            moving[key] = (before, after)
+    cameras = None
+    if camera is not None and not (np.array_equal(camera_previous, camera_now)
+                                   and np.array_equal(camera_next, camera_now)):
+        cameras = (camera_previous, camera_next)
+    return moving, cameras
 
 
 def _set_time(engine, time):

@@ -55,7 +55,7 @@ class PersistentScene:
         self.refits = 0
 
     def export(self, native, depsgraph, width, height, identity, camera_override=None,
-               cancelled=lambda: False, motion=None):
+               cancelled=lambda: False, motion=None, frame_motion=None):
         """Exports `depsgraph` reusing the cached meshes and, where only
         transforms changed, the previous BVH refit. Returns an ExportResult."""
         if identity != self.identity:
@@ -64,7 +64,8 @@ class PersistentScene:
         cache = self.mesh_cache
         scene_reuse.invalidate_changed_meshes(cache, depsgraph)
         exporter = export.SceneExporter(native, depsgraph, width, height, camera_override, mesh_cache=cache,
-                                        motion=motion, separate_objects=frozenset(cache.changed_objects))
+                                        motion=motion, separate_objects=frozenset(cache.changed_objects),
+                                        frame_motion=frame_motion)
         result = exporter.export(cancelled)
         cache.retain(exporter.used_keys)
         previous, self.scene = self.scene, result.scene

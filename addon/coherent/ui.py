@@ -316,9 +316,16 @@ class VIEWLAYER_PT_coherent_passes_data(CoherentButtonsPanel, bpy.types.Panel):
         col.prop(view_layer, "use_pass_mist")
         col.prop(view_layer, "use_pass_position")
         col.prop(view_layer, "use_pass_normal")
+        col.prop(view_layer, "use_pass_vector")
         col.prop(view_layer, "use_pass_uv")
         col.prop(context.scene.coherent, "use_pass_error")
-        col.prop(context.scene.coherent, "use_pass_denoising_data")
+        # Cycles' own tick while its add-on is enabled (it defines the
+        # property); this engine's scene-wide one otherwise. Either works.
+        cycles = getattr(view_layer, "cycles", None)
+        if cycles is not None and hasattr(cycles, "denoising_store_passes"):
+            col.prop(cycles, "denoising_store_passes", text="Denoising Data")
+        else:
+            col.prop(context.scene.coherent, "use_pass_denoising_data")
         col = layout.column(heading="Indexes", align=True)
         col.prop(view_layer, "use_pass_object_index")
         col.prop(view_layer, "use_pass_material_index")

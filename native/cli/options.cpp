@@ -116,7 +116,8 @@ std::vector<OptionSpec> cli_options() {
         {"--passes", "", "NAMES",
          "Cycles' render passes to accumulate and write into the EXR as layers of Cycles' names, comma-separated: "
          "diffdir, diffind, diffcol, glossdir, glossind, glosscol, transdir, transind, transcol, emit, env, ao, mist, "
-         "position, indexob, indexma (a pass not named costs nothing)",
+         "position, uv, indexob, indexma, vector (zero in the CLI: a scene file has no frames) "
+         "(a pass not named costs nothing)",
          "Output", apply_passes},
         {"--json", "", "", "print render statistics as one JSON object on stdout", "Output",
          [](RenderOptions& o, const std::string& v) { o.json = flag_value(v); }},

@@ -115,7 +115,7 @@ void Film::add_passes(int x, int y, const PassSample& values, uint32_t sample) {
         const RenderPassInfo& info = render_pass_info(RenderPass(p));
         const float* v = values.v + info.offset;
         float* d = &pass_sums_[p][i * size_t(info.channels)];
-        if (RenderPass(p) >= RenderPass::Position) {
+        if (RenderPass(p) >= RenderPass::Position && RenderPass(p) <= RenderPass::IndexMA) {
             // Sample 0 only (Cycles): an average of positions or indices means nothing.
             if (sample == 0)
                 for (int c = 0; c < info.channels; ++c) d[c] = v[c];
@@ -165,6 +165,12 @@ void Film::resolve_render_pass(PassType t, size_t i, float* out) const {
             // Accumulated as 1 - mist (0 for the world), as Cycles does.
             out[0] = count_[i] ? 1.0f - s[0] * inv : 0.0f;
             break;
+        case RenderPass::Vector: {
+            // Cycles divides by its motion weight: the samples that hit something.
+            const float hit_inv = hits_[i] ? 1.0f / float(hits_[i]) : 0.0f;
+            for (int c = 0; c < 4; ++c) out[c] = s[c] * hit_inv;
+            break;
+        }
         case RenderPass::Position:
         case RenderPass::IndexOB:
         case RenderPass::IndexMA:

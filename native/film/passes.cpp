@@ -9,7 +9,7 @@ namespace coherent {
 
 const RenderPassInfo& render_pass_info(RenderPass p) {
     // Offsets: 12 RGB passes (the 11 light passes and AO), then Mist, UV,
-    // Position, IndexOB, IndexMA.
+    // Position, IndexOB, IndexMA, Vector.
     static const RenderPassInfo infos[] = {
         {"DiffDir", "diffdir", 3, "RGB", 0},   {"DiffInd", "diffind", 3, "RGB", 3},
         {"DiffCol", "diffcol", 3, "RGB", 6},   {"GlossDir", "glossdir", 3, "RGB", 9},
@@ -19,7 +19,7 @@ const RenderPassInfo& render_pass_info(RenderPass p) {
         {"Env", "env", 3, "RGB", 30},          {"AO", "ao", 3, "RGB", 33},
         {"Mist", "mist", 1, "Z", 36},          {"UV", "uv", 3, "UVA", 37},
         {"Position", "position", 3, "XYZ", 40}, {"IndexOB", "indexob", 1, "X", 43},
-        {"IndexMA", "indexma", 1, "X", 44},
+        {"IndexMA", "indexma", 1, "X", 44},     {"Vector", "vector", 4, "XYZW", 45},
     };
     static_assert(sizeof(infos) / sizeof(infos[0]) == size_t(kRenderPassCount));
     return infos[size_t(p)];

@@ -32,6 +32,11 @@
 //   samples (0 for those that see the world). Position, IndexOB and
 //   IndexMA: from the first sample only (Cycles writes them at sample 0), 0
 //   where nothing was hit.
+//   Vector (Cycles' primitive_motion_vector): in raster pixels (x right, y up
+//   from the bottom row, Cycles' raster space), (previous - now, now - next)
+//   of where the hit point is seen: the point carried by its object's motion
+//   to the previous and the next frame, projected by the camera of that frame
+//   (with this frame's lens). Averaged over the samples that hit geometry.
 // Cycles 3.4 has no Shadow pass (removed with Cycles X), so neither do we.
 #pragma once
 
@@ -63,6 +68,7 @@ enum class RenderPass : uint8_t {
     Position,
     IndexOB,
     IndexMA,
+    Vector,
     Count
 };
 constexpr int kRenderPassCount = int(RenderPass::Count);
@@ -89,7 +95,7 @@ PassMask pass_mask_from_names(const std::vector<std::string>& names);
 
 // One camera sample's contributions to every pass (zero where not enabled).
 struct PassSample {
-    static constexpr int kFloats = 3 * 12 + 1 + 3 + 3 + 2;
+    static constexpr int kFloats = 3 * 12 + 1 + 3 + 3 + 2 + 4;
     float v[kFloats] = {};
     float crypto_id[3] = {};  // object, material, asset of the first hit; 0 = none (cryptomatte.h)
     void add(RenderPass p, const Vec3f& c) {
@@ -100,6 +106,10 @@ struct PassSample {
     void set(RenderPass p, const Vec3f& c) {
         float* d = v + render_pass_info(p).offset;
         d[0] = c.x, d[1] = c.y, d[2] = c.z;
+    }
+    void set(RenderPass p, float x, float y, float z, float w) {
+        float* d = v + render_pass_info(p).offset;
+        d[0] = x, d[1] = y, d[2] = z, d[3] = w;
     }
 };
 

@@ -7,6 +7,7 @@
 // an integer dtype (a float index array is a TypeError, because silently
 // truncating 2.7 to 2 hides exporter bugs) and are converted to uint32 with
 // out-of-range values mapped to an index the scene validation then drops.
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstring>
@@ -226,11 +227,20 @@ std::vector<uint32_t> read_material_slots(const PyScene& self, const py::handle&
     return slots;
 }
 
+// K pairs of finite (4, 4) matrices, read as K x 2 Transforms; shape (2, 4,
+// 4) for k < 0 (one pair), else (k, 2, 4, 4).
+FloatArray frame_transform_array(const py::handle& obj, py::ssize_t k, const char* what, const char* shape) {
+    FloatArray m = k < 0 ? float_array(obj, {2, 4, 4}, what, shape) : float_array(obj, {k, 2, 4, 4}, what, shape);
+    for (py::ssize_t i = 0; i < 32 * std::max<py::ssize_t>(k, 1); ++i)
+        if (!std::isfinite(m.data()[i])) throw py::value_error(std::string(what) + ": entries must be finite");
+    return m;
+}
+
 size_t add_mesh(PyScene& self, const std::string& name, const py::handle& positions_obj,
                 const py::handle& indices_obj, const py::handle& matrix_obj, const py::handle& normals_obj,
                 const py::handle& material_ids_obj, const py::handle& material_slots_obj,
                 const py::handle& matrix_close_obj, const py::handle& uvs_obj, const py::handle& tangents_obj,
-                const py::handle& generated_obj, const py::handle& colors_obj) {
+                const py::handle& generated_obj, const py::handle& colors_obj, const py::handle& frame_matrices_obj) {
     self.check_mutable("add_mesh");
     MeshArgs args;
     read_mesh_arrays(args, name, positions_obj, indices_obj, normals_obj, material_ids_obj);
@@ -251,6 +261,13 @@ size_t add_mesh(PyScene& self, const std::string& name, const py::handle& positi
     if (!matrix_close_obj.is_none()) {
         read_matrix(matrix_close_obj, "matrix_close", in.object_to_world_close);
         in.moves = true;
+    }
+    // Vector pass: the transforms one frame earlier and one later.
+    Transform frames[2];
+    if (!frame_matrices_obj.is_none()) {
+        const FloatArray m = frame_transform_array(frame_matrices_obj, -1, "frame_matrices", "(2, 4, 4)");
+        std::memcpy(frames, m.data(), sizeof(frames));
+        in.frame_transforms = frames;
     }
     in.material_slots = read_material_slots(self, material_slots_obj);
 
@@ -290,7 +307,7 @@ static_assert(sizeof(Transform) == 16 * sizeof(float), "a (K, 4, 4) float32 arra
 // Scene.add_instances: one prototype placed by K matrices, read in place.
 size_t add_instances(PyScene& self, int64_t prototype, const py::handle& matrices_obj,
                      const py::handle& material_slots_obj, const std::string& name,
-                     const py::handle& matrices_close_obj) {
+                     const py::handle& matrices_close_obj, const py::handle& frame_matrices_obj) {
     self.check_mutable("add_instances");
     if (prototype < 0 || size_t(prototype) >= self.scene.prototypes.size())
         throw py::value_error("prototype: " + std::to_string(prototype) + " does not exist (scene has " +
@@ -304,11 +321,17 @@ size_t add_instances(PyScene& self, int64_t prototype, const py::handle& matrice
         close = float_array(matrices_close_obj, {matrices.shape(0), 4, 4}, "matrices_close", "(K, 4, 4) as matrices");
         close_transforms = reinterpret_cast<const Transform*>(close.data());
     }
+    FloatArray frames;
+    const Transform* frame_transforms = nullptr;
+    if (!frame_matrices_obj.is_none()) {
+        frames = frame_transform_array(frame_matrices_obj, matrices.shape(0), "frame_matrices", "(K, 2, 4, 4)");
+        frame_transforms = reinterpret_cast<const Transform*>(frames.data());
+    }
     size_t placed;
     {
         py::gil_scoped_release unlocked;
         placed = self.scene.add_instances(uint32_t(prototype), transforms, size_t(matrices.shape(0)), slots, name,
-                                          close_transforms);
+                                          close_transforms, frame_transforms);
     }
     self.finalized = false;
     self.bvh.reset();  // emissive instances became triangles
@@ -444,6 +467,34 @@ void set_camera(PyScene& self, const std::string& projection, const py::handle& 
     c.focus_distance = positive(focus_distance, "focus_distance");
     self.scene.camera = c;
     self.finalized = false;
+}
+
+// A camera object's world matrix (Blender's: columns right, up, back,
+// position) as the frame set_camera derives from the same vectors.
+CameraFrame camera_frame(const py::handle& obj, const char* what) {
+    const FloatArray m = float_array(obj, {4, 4}, what, "(4, 4)");
+    const auto column = [&](int c) { return Vec3f(m.at(0, c), m.at(1, c), m.at(2, c)); };
+    CameraFrame f;
+    f.position = column(3);
+    const Vec3f back = column(2), up = column(1);
+    if (!std::isfinite(dot(f.position, f.position) + dot(back, back) + dot(up, up)) || !(length(back) > 0.0f))
+        throw py::value_error(std::string(what) + ": expected a finite camera matrix with a view axis");
+    f.forward = normalize(-back);
+    const Vec3f u = up - f.forward * dot(up, f.forward);
+    if (!(length(u) > 1e-12f)) throw py::value_error(std::string(what) + ": up must not be parallel to the view axis");
+    f.up = normalize(u);
+    f.right = cross(f.forward, f.up);
+    if (dot(column(0), f.right) < 0.0f) f.right = -f.right;
+    return f;
+}
+
+// Scene.set_camera_frames (the Vector pass's camera motion).
+void set_camera_frames(PyScene& self, const py::handle& previous, const py::handle& next) {
+    self.check_mutable("set_camera_frames");
+    DataPassInputs& d = self.scene.data_passes;
+    d.camera_previous = camera_frame(previous, "previous");
+    d.camera_next = camera_frame(next, "next");
+    d.camera_moves = true;
 }
 
 py::dict camera_dict(const Camera& c) {
@@ -633,11 +684,14 @@ prototype's index, or -1 when no triangle was usable (reported in `dropped`).
 )doc")
         .def("add_instances", &add_instances, py::arg("prototype"), py::arg("matrices"),
              py::arg("material_slots") = py::none(), py::arg("name") = "", py::arg("matrices_close") = py::none(),
+             py::kw_only(), py::arg("frame_matrices") = py::none(),
              R"doc(Places prototype `prototype` once per row-major object-to-world matrix.
 
 matrices: float (K, 4, 4); material_slots: scene material per slot (as add_mesh).
 matrices_close: optional float (K, 4, 4), the transforms at shutter close
 (motion blur): instance k moves from matrices[k] to matrices_close[k].
+frame_matrices: optional float (K, 2, 4, 4), instance k's matrix one frame
+earlier and one frame later (the Vector pass; without it, standing still).
 Instances with a non-invertible matrix are skipped (reported in `dropped`);
 instances of an emissive material become world-space triangles. Returns
 the number of instances placed.
@@ -775,7 +829,7 @@ default grey diffuse.
              py::arg("normals") = py::none(), py::arg("material_ids") = py::none(),
              py::arg("material_slots") = py::none(), py::arg("matrix_close") = py::none(), py::kw_only(),
              py::arg("uvs") = py::none(), py::arg("tangents") = py::none(), py::arg("generated") = py::none(),
-             py::arg("colors") = py::none(),
+             py::arg("colors") = py::none(), py::arg("frame_matrices") = py::none(),
              R"doc(Adds a triangle mesh, transformed to world space by `matrix`.
 
 positions: float (N, 3) object-space vertices (any real dtype, converted to float32)
@@ -792,6 +846,8 @@ tangents: optional float (M, 3, 4) per-corner object-space tangent and bitangent
 generated: optional (scale, offset) of Blender's texture space
 colors: optional list, one per set_shading_inputs colour name, of float (M, 3, 4)
   per-corner linear RGBA (None where the mesh lacks that attribute)
+frame_matrices: optional float (2, 4, 4): the object-to-world transform one
+  frame earlier and one frame later (the Vector pass; without it, still)
 Bad triangles (non-finite, out-of-range index, zero area) are dropped and
 counted in `dropped`. Returns the number of triangles added.)doc")
         .def("add_material", &add_material, py::arg("name"), py::arg("closures") = py::none(),
@@ -825,6 +881,10 @@ native/shader/program.h) whose outputs override the constants per shading point.
              py::arg("sun_angle") = 0.0, py::arg("shape") = "SQUARE", py::arg("size_u") = 1.0,
              py::arg("size_v") = 1.0,
              "Adds a light in Blender units (W for point/spot/area, W/m^2 for sun); returns its index.")
+        .def("set_camera_frames", &set_camera_frames, py::arg("previous"), py::arg("next"), R"doc(
+The camera object's world matrix (float (4, 4), row-major, Blender's
+matrix_world) one frame earlier and one frame later, for the Vector pass;
+the lens stays set_camera's (as in Cycles). Without it the camera stands still.)doc")
         .def("set_camera", &set_camera, py::kw_only(), py::arg("projection") = "PERSP",
              py::arg("position") = py::make_tuple(0.0, 0.0, 5.0), py::arg("forward") = py::make_tuple(0.0, 0.0, -1.0),
              py::arg("up") = py::make_tuple(0.0, 1.0, 0.0), py::arg("right") = py::none(),

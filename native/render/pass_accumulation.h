@@ -93,6 +93,7 @@ struct FirstHit {
     uint32_t material;
     Vec3f p, p_error, n, ng_f;
     float cos_wo;  // dot(n, wo)
+    int width, height;  // the full frame, in pixels (Vector)
 };
 
 inline uint32_t hit_object(const Scene& scene, const Hit& hit) {
@@ -148,6 +149,47 @@ inline Vec3f first_hit_uv(const Scene& scene, const Hit& hit) {
     return {c[0].x * w + c[1].x * hit.u + c[2].x * hit.v, c[0].y * w + c[1].y * hit.u + c[2].y * hit.v, 1.0f};
 }
 
+// Cycles' raster position of world point p seen from camera frame f through
+// `cam`'s lens: pixels of the full frame, x right, y up from the bottom edge.
+// The inverse of generate_camera_ray's image-plane mapping.
+inline Vec2f raster_position(const Camera& cam, const CameraFrame& f, const Vec3f& p, int width, int height) {
+    const Vec3f v = p - f.position;
+    float px = dot(v, f.right), py = dot(v, f.up);
+    if (cam.projection == Projection::Perspective) {
+        const float z = dot(v, f.forward);
+        px /= z, py /= z;
+    }
+    const float larger = 2.0f * std::max(cam.half_width, cam.half_height);
+    const float sx = (px - cam.shift_x * larger) / cam.half_width;
+    const float sy = (py - cam.shift_y * larger) / cam.half_height;
+    return {0.5f * (sx + 1.0f) * float(width), 0.5f * (sy + 1.0f) * float(height)};
+}
+
+// The frame motion of what `hit` hit, or null where it stands still.
+inline const FrameMotion* hit_frame_motion(const Scene& scene, const Hit& hit) {
+    const DataPassInputs& d = scene.data_passes;
+    if (hit.instance != kInvalidPrim)
+        return hit.instance < d.instance_frame_motion.size() ? &d.instance_frame_motion[hit.instance] : nullptr;
+    const uint32_t object = scene.object_of[hit.prim];
+    return object < d.object_frame_motion.size() ? &d.object_frame_motion[object] : nullptr;
+}
+
+// Cycles' primitive_motion_vector for a point p on what `hit` hit, in a
+// width x height frame: (previous - now, now - next) raster positions.
+inline void record_vector(const Scene& scene, const Hit& hit, const Vec3f& p, int width, int height,
+                          PassSample& out) {
+    const Camera& cam = scene.camera;
+    const DataPassInputs& d = scene.data_passes;
+    const CameraFrame now{cam.position, cam.right, cam.up, cam.forward};
+    const FrameMotion* m = hit_frame_motion(scene, hit);
+    const Vec2f c = raster_position(cam, now, p, width, height);
+    const Vec2f a = raster_position(cam, d.camera_moves ? d.camera_previous : now, m ? m->to_previous.point(p) : p,
+                                    width, height);
+    const Vec2f b =
+        raster_position(cam, d.camera_moves ? d.camera_next : now, m ? m->to_next.point(p) : p, width, height);
+    out.set(RenderPass::Vector, a.x - c.x, a.y - c.y, c.x - b.x, c.y - b.y);
+}
+
 // Col, Mist, UV, Position, Index and AO at the camera's first hit. The AO ray
 // (directions from u1, u2, ao_distance long) is traced by `occluded(ray)`.
 template <class Occluded>
@@ -177,6 +219,7 @@ inline void record_first_hit(PassMask mask, PassSample& out, const FirstHit& h, 
     const auto& ma = scene.data_passes.material_pass_index;
     out.set(RenderPass::IndexMA, h.material < ma.size() ? ma[h.material] : 0.0f);
     if (mask & kCryptomatteIds) record_cryptomatte_ids(scene, *h.hit, h.material, out);
+    if (mask & pass_bit(RenderPass::Vector)) record_vector(scene, *h.hit, h.p, h.width, h.height, out);
     if (!(mask & pass_bit(RenderPass::AO))) return;
     // Cycles: cosine about the shading normal, kept only on the geometric side.
     const Vec3f local = sample_cosine_hemisphere(u1, u2);

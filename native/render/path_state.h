@@ -629,7 +629,8 @@ inline void record_first_hit_passes(const PathContext& ctx, const PathSampler& p
     using D = PathDims;
     const float ao_distance = ctx.scene->data_passes.ao_distance > 0.0f ? ctx.scene->data_passes.ao_distance
                                                                          : ctx.ao_distance;
-    const passes::FirstHit h{ctx.scene, &hit, sp.material, sp.p, sp.p_error, sp.n, sp.ng_f, dot(sp.n, sp.wo)};
+    const passes::FirstHit h{ctx.scene, &hit, sp.material, sp.p, sp.p_error, sp.n, sp.ng_f, dot(sp.n, sp.wo),
+                             ctx.settings->width, ctx.settings->height};
     passes::record_first_hit(s.pass.mask, s.out.passes, h, bsdf, ps.get(D::bounce(0, D::kBsdfU)),
                              ps.get(D::bounce(0, D::kBsdfV)), ao_distance, [&](const Ray& r) {
                                  return ctx.bvh->occluded(r) || instance_occluded(ctx, s, r) ||

@@ -169,7 +169,8 @@ uint32_t Scene::add_prototype(const MeshInput& mesh) {
 
 size_t Scene::add_instances(uint32_t prototype, const Transform* transforms, size_t count,
                             const std::vector<uint32_t>& material_slots, const std::string& name,
-                            const Transform* close_transforms) {
+                            const Transform* close_transforms,
+                            const Transform* frame_transforms) {
     if (prototype >= prototypes.size())
         throw std::invalid_argument("add_instances: prototype " + std::to_string(prototype) + " does not exist (scene has " +
                                     std::to_string(prototypes.size()) + ")");
@@ -184,7 +185,8 @@ size_t Scene::add_instances(uint32_t prototype, const Transform* transforms, siz
     if (emissive) {
         for (size_t i = 0; i < count; ++i) {
             const Transform* close = close_transforms ? &close_transforms[i] : nullptr;
-            const PrototypeMesh pm = as_mesh_input(prototypes[prototype], transforms[i], close, material_slots, label);
+            PrototypeMesh pm = as_mesh_input(prototypes[prototype], transforms[i], close, material_slots, label);
+            pm.in.frame_transforms = frame_transforms ? frame_transforms + 2 * i : nullptr;
             placed += add_mesh(pm.in) > 0 ? 1 : 0;
         }
         return placed;
@@ -222,6 +224,9 @@ size_t Scene::add_instances(uint32_t prototype, const Transform* transforms, siz
             instance_close.push_back(close);
         }
         instances.push_back(inst);
+        if (frame_transforms)
+            set_frame_motion(data_passes.instance_frame_motion, instances.size() - 1, inst.object_to_world,
+                             frame_transforms + 2 * i);
         ++placed;
     }
     if (singular > 0)

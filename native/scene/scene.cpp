@@ -238,7 +238,26 @@ size_t Scene::add_mesh(const MeshInput& mesh) {
         ++added;
     }
     if (added > 0) append_object_shading(shading, mesh);
-    return record_mesh(*this, name, mesh.triangle_count, added, drops);
+    const size_t recorded = record_mesh(*this, name, mesh.triangle_count, added, drops);
+    if (recorded > 0 && mesh.frame_transforms)
+        set_frame_motion(data_passes.object_frame_motion, object_names.size() - 1, xf, mesh.frame_transforms);
+    return recorded;
+}
+
+void set_frame_motion(std::vector<FrameMotion>& list, size_t index, const Transform& now, const Transform* frames) {
+    Transform inverse;
+    if (!invert_affine(now, inverse)) return;
+    // a * b for affine transforms (bottom rows 0 0 0 1).
+    const auto compose = [](const Transform& a, const Transform& b) {
+        Transform t;
+        for (int r = 0; r < 3; ++r)
+            for (int c = 0; c < 4; ++c)
+                t.m[r][c] = a.m[r][0] * b.m[0][c] + a.m[r][1] * b.m[1][c] + a.m[r][2] * b.m[2][c] +
+                            (c == 3 ? a.m[r][3] : 0.0f);
+        return t;
+    };
+    if (list.size() <= index) list.resize(index + 1);
+    list[index] = {compose(frames[0], inverse), compose(frames[1], inverse)};
 }
 
 void Scene::finalize() {

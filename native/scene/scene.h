@@ -54,6 +54,21 @@ struct MeshInput {
     bool moves = false;  // true when positions_close or object_to_world_close applies
     Transform object_to_world_close;
     MeshShadingInput shading;  // UVs, tangents, texture space: read only where Scene::shading wants them
+    // Vector pass (optional): object_to_world one frame earlier and one frame
+    // later, two transforms (DataPassInputs::object_frame_motion).
+    const Transform* frame_transforms = nullptr;
+};
+
+// Vector pass (film/passes.h): where a point seen at this frame was one
+// frame earlier and will be one frame later, as world-to-world transforms.
+struct FrameMotion {
+    Transform to_previous, to_next;
+};
+
+// The camera's frame (Camera's position and axes) one frame away; the lens
+// is always Scene::camera's, as in Cycles' motion pass.
+struct CameraFrame {
+    Vec3f position{0.0f}, right{1.0f, 0.0f, 0.0f}, up{0.0f, 1.0f, 0.0f}, forward{0.0f, 0.0f, -1.0f};
 };
 
 // What Cycles' data passes (film/passes.h) read besides the geometry:
@@ -69,7 +84,19 @@ struct DataPassInputs {
     // name): the object as Blender names it (an instance's own object) and
     // its asset (the top-level parent).
     std::vector<std::string> crypto_object_names, crypto_asset_names;
+    // Vector pass: per object (parallel to object_names, for world-space
+    // triangles) and per instance (parallel to instances), identity where
+    // still; a list is empty while nothing in it moves, and may end early.
+    std::vector<FrameMotion> object_frame_motion, instance_frame_motion;
+    // The camera one frame earlier and later (camera_moves false: standing still).
+    bool camera_moves = false;
+    CameraFrame camera_previous, camera_next;
 };
+
+// Sets list[index] (growing the list with identities) to the motion of an
+// object placed by `now` whose placements one frame away are frames[0]
+// (previous) and frames[1] (next). A singular `now` leaves it still.
+void set_frame_motion(std::vector<FrameMotion>& list, size_t index, const Transform& now, const Transform* frames);
 
 struct Scene {
     // --- geometry (world space), triangle i uses vertices 3i, 3i+1, 3i+2 ---
@@ -131,9 +158,11 @@ struct Scene {
     // into world-space triangles instead (add_mesh), so that next-event
     // estimation samples them. Throws std::invalid_argument for an unknown
     // prototype or material. Returns the instances placed (either way).
+    // `frame_transforms` (Vector pass; null = none): two per instance, its
+    // placement one frame earlier and one later (MeshInput::frame_transforms).
     size_t add_instances(uint32_t prototype, const Transform* transforms, size_t count,
                          const std::vector<uint32_t>& material_slots, const std::string& name,
-                         const Transform* close_transforms = nullptr);
+                         const Transform* close_transforms = nullptr, const Transform* frame_transforms = nullptr);
     bool has_moving_instances() const { return !instance_close.empty(); }
     // Triangles rendered through instances (each instance counts its prototype's).
     size_t instanced_triangle_count() const;
