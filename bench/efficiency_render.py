@@ -9,7 +9,8 @@ JOBS.json holds the common settings (resolution, threads, light paths) and a
 list of renders {engine, spp, seed, sampler, pattern, out}. Each render's
 seconds are those of bpy.ops.render.render() in this process: scene sync or
 export, BVH build and sample passes, what a user waits for after F12, and
-none of Blender's start-up. The image is then written as a linear 32-bit
+none of Blender's start-up; cpu_seconds is the process's CPU time over the
+same call (all threads). The image is then written as a linear 32-bit
 float EXR (Standard view transform, not timed). One line per render on
 stdout: "EFFBENCH_RENDER {json}"; the driver reads those.
 """
@@ -93,13 +94,14 @@ def main():
                                              cycles_pattern=scene.cycles.sampling_pattern)), flush=True)
     for render in job["renders"]:
         configure_render(scene, render)
-        start = time.perf_counter()
+        start, cpu_start = time.perf_counter(), time.process_time()
         result = bpy.ops.render.render()
         seconds = time.perf_counter() - start
+        cpu_seconds = time.process_time() - cpu_start  # every thread of this process
         if "FINISHED" not in result:
             sys.exit(f"efficiency_render: {render['engine']} render of {render['out']} returned {sorted(result)}")
         bpy.data.images["Render Result"].save_render(render["out"], scene=scene)
-        print("EFFBENCH_RENDER " + json.dumps(dict(render, seconds=seconds)), flush=True)
+        print("EFFBENCH_RENDER " + json.dumps(dict(render, seconds=seconds, cpu_seconds=cpu_seconds)), flush=True)
 
 
 if __name__ == "__main__":  # bench/efficiency_gap_render.py imports the settings

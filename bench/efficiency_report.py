@@ -258,6 +258,9 @@ def setup_text(rep):
             "noise, a quarter of the halves' mean squared difference, is subtracted from each MSE. "
             "Seconds: `bpy.ops.render.render()` in one Blender process per scene (sync or export, BVH "
             "build and sampling; no Blender start-up). Engines and configurations alternate in one loop. "
+            + ("**Seconds here are CPU seconds** (`--clock cpu`: the Blender process's CPU time over all "
+               "threads during that call), steadier than wall time on a loaded machine but blind to time "
+               "threads spend waiting. " if i.get("clock") == "cpu" else "") +
             "Where SPT, CPT and ICPT are rendered, Auto's row is that of the sampler it resolves to (same seed, "
             "same image), not a second render.", "",
             "Efficiency = 1 / (MSE x seconds); **efficiency ratio = (Cycles' MSE x s) / (ours)**, > 1: we "

@@ -223,6 +223,8 @@ def measure_scene(args, name, path, which):
 
     def on_render(r):
         done[0] += 1
+        if args.clock == "cpu":
+            r["seconds"] = r["cpu_seconds"]
         progress = f"[{which}, render {done[0]}/{len(renders)}] {name} {r['engine'].lower()}"
         if r["role"] == "reference":
             print(f"{progress} reference half {r['spp']} spp: {r['seconds']:.2f} s", flush=True)
@@ -296,6 +298,9 @@ def parse_args(argv):
     ap.add_argument("--reference-spp", type=int, default=4096)
     ap.add_argument("--references-only", action="store_true", help="render the missing references and stop")
     ap.add_argument("--reps", type=int, default=1)
+    ap.add_argument("--clock", choices=["wall", "cpu"], default="wall",
+                    help="seconds of a render: wall time (what a user waits), or the Blender process's CPU "
+                         "time over all threads (steadier on a loaded machine; leaves out time threads wait)")
     ap.add_argument("--samplers", nargs="+", choices=SAMPLERS, default=SAMPLERS)
     ap.add_argument("--patterns", nargs="+", choices=PATTERNS, default=PATTERNS)
     ap.add_argument("--res", type=int, default=128)
@@ -340,7 +345,8 @@ def main(argv=None):
                 continue
             rows += scene_rows
             info = dict(worker, commands=[command], res=args.res, threads=args.threads,
-                        max_bounces=args.max_bounces, reference_spp=args.reference_spp, reps=args.reps)
+                        max_bounces=args.max_bounces, reference_spp=args.reference_spp, reps=args.reps,
+                        clock=args.clock)
             # After every scene, so an interrupted run still has a report.
             save_results(args, csv_path, info_path, rows, info, [n for n, _ in all_scenes])
         if args.references_only:

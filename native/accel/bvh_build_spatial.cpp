@@ -8,7 +8,9 @@
 //    side keeping the bounds of the triangle's part on its side.
 // Spatial splits are only tried where the object split's children overlap
 // by more than `spatial_split_alpha` of the root area (Stich's alpha: deep
-// nodes with small overlap gain little), and only while the node's share of
+// nodes with small overlap gain little) and that overlap is thicker than
+// spatial_split_min_thickness of the node along the split axis (references
+// thin next to the node leave a spatial split little to trim), and only while the node's share of
 // the duplication budget lasts. The budget (spatial_split_budget x the number
 // of triangles extra references in all) is handed down in proportion to the
 // children's sizes, so the output does not depend on scheduling.
@@ -237,7 +239,9 @@ public:
             bool try_spatial = budget > 0;
             if (try_spatial && object.axis >= 0) {
                 const BBox overlap = intersect_boxes(object.lbox, object.rbox);
-                try_spatial = !overlap.empty() && overlap.half_area() > min_overlap_;
+                const int a = object.axis;
+                try_spatial = !overlap.empty() && overlap.half_area() > min_overlap_ &&
+                              overlap.extent()[a] > opt_.spatial_split_min_thickness * box.extent()[a];
             }
             if (try_spatial) spatial = find_spatial_split(refs, box, budget);
         }

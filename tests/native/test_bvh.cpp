@@ -264,6 +264,29 @@ TEST(Bvh, SpatialSplitsLowerTheSahCostOnSlivers) {
     EXPECT_LT(b.box_tests + 4 * b.triangle_tests, a.box_tests + 4 * a.triangle_tests);
 }
 
+// A finely tessellated closed surface (a scanned mesh's shape): its
+// triangles are thin next to every node where Stich's overlap test alone
+// would search, so the default thickness test skips the spatial-split
+// search there and the tree keeps one reference per triangle, while the
+// slivers above still get cut. Both trees stay exact.
+TEST(Bvh, ThinOverlapsSkipTheSpatialSplitSearch) {
+    const auto sphere = icosphere(5, 3.0f, Vec3f(0.5f, -0.25f, 1.0f)).soup();
+    BvhBuildOptions stich_only = with_budget(0.3f);
+    stich_only.spatial_split_min_thickness = 0.0f;
+    const BvhBuildOptions defaults = with_budget(0.3f);
+    ASSERT_GT(defaults.spatial_split_min_thickness, 0.0f);
+    Bvh searched, skipped;
+    searched.build(sphere, stich_only);
+    skipped.build(sphere, defaults);
+    EXPECT_GT(searched.prim_order().size(), sphere.size() / 3) << "Stich's test alone should cut some references";
+    EXPECT_EQ(skipped.prim_order().size(), sphere.size() / 3);
+    for (const Bvh* bvh : {&searched, &skipped}) {
+        size_t hits = 0;
+        expect_matches_brute_force(*bvh, sphere, random_rays(1000, 81, 3.0f), &hits);
+        EXPECT_GT(hits, 100u);
+    }
+}
+
 // The 8-wide collapse: the SAH-optimal one (default) and the greedy one must
 // give the same hits (both bit-identical to brute force), and the optimal one
 // must not cost more by its own objective, the summed area of the wide nodes
