@@ -288,6 +288,7 @@ bool run_vector_instruction(const ShaderProgram& prog, const ShaderInstr& in, co
         case ShaderOp::Invert:
         case ShaderOp::RgbToBw:
         case ShaderOp::Combine: return simple(in, b);
+        case ShaderOp::TexNoise: return noise3_rows(prog, in, b, live_lanes);
         default: return false;
     }
 }

@@ -29,4 +29,8 @@ struct BatchRegisters {
 bool run_vector_instruction(const ShaderProgram& prog, const ShaderInstr& in, const BatchRegisters& b,
                             size_t live_lanes);
 
+// Noise Texture 3D with Detail and Roughness the same in every live lane and
+// Distortion 0 (eval_batch_noise.cpp); false otherwise.
+bool noise3_rows(const ShaderProgram& prog, const ShaderInstr& in, const BatchRegisters& b, size_t live_lanes);
+
 }  // namespace coherent::eval_detail

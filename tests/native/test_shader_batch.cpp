@@ -166,6 +166,30 @@ TEST(ShaderBatch, EveryOpInEveryValidModeMatchesTheScalarInterpreterBitForBit) {
     EXPECT_GT(modes_run, 300);
 }
 
+// The Noise Texture's SIMD rows (3D, one Detail and Roughness for the
+// batch, no Distortion), where the patterns above mostly take the scalar
+// path: per-lane vectors and scales, edge-case Detail and Roughness.
+TEST(ShaderBatch, NoiseTextureRowsMatchTheScalarTexture) {
+    std::mt19937 rng(17);
+    const Scene scene;
+    const float details[] = {0.0f, 2.0f, 2.5f, 15.0f, 40.0f, -1.0f, std::numeric_limits<float>::quiet_NaN()};
+    const float roughnesses[] = {0.5f, 0.0f, 1.0f, 2.0f, -0.0f};
+    for (float detail : details)
+        for (float roughness : roughnesses)
+            for (float distortion : {0.0f, -0.0f})
+                for (uint16_t scale : {uint16_t(1), uint16_t(15)}) {  // per lane (Position y) or a constant
+                    ShaderInstr in = instr(ShaderOp::TexNoise, 3, {}, {}, 0);
+                    ShaderProgram p = program_with(in, rng);
+                    p.constants[16] = detail, p.constants[17] = roughness, p.constants[18] = distortion;
+                    p.data = {3, 0, float(scale), 16, 17, 18, float(kOut), float(kOut + 1)};
+                    ASSERT_EQ(p.validate(0, 0), "");
+                    const Points pts(29, rng);
+                    std::string first;
+                    EXPECT_EQ(mismatches(scene, p, pts, first), 0)
+                        << "detail " << detail << " roughness " << roughness << ": " << first;
+                }
+}
+
 template <class T>
 bool same_bits(const T& a, const T& b) {
     return std::memcmp(&a, &b, sizeof(T)) == 0;
