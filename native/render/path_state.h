@@ -382,9 +382,9 @@ COHERENT_ALWAYS_INLINE const Material& material_at(const PathContext& ctx, const
 // A hit shaded ahead of shade_hit() with others (render/batch_shading.h):
 // its surface point and, for a program material, what the program computed.
 struct PreShaded {
-    SurfacePoint sp;                    // as surface_point() gives it
+    SurfacePoint sp;                     // as surface_point() gives it
     const Material* material = nullptr;  // what the program computed; null: the scene's constant one
-    Vec3f n{0.0f};                      // the shading normal the program leaves
+    Vec3f n{0.0f};                       // the shading normal the program leaves
 };
 
 // Analytic lights are invisible to camera rays (measured in Cycles) and
