@@ -36,6 +36,7 @@ TABLE_PROPERTIES = {
     "integrator": ("integrator", {}),
     "traversal": ("traversal", {}),
     "assembly": ("assembly", {}),
+    "shader_batch": ("shader_batch", {}),
     "bvh_width": ("bvh_width", {}),
     "reorder": ("reorder", {}),
     "wave_size": ("wave_size", dict(soft_min=1024)),

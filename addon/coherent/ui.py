@@ -189,6 +189,9 @@ class RENDER_PT_coherent_tracing(CoherentButtonsPanel, bpy.types.Panel):
         sub.active = props.traversal == "WAVEFRONT"
         sub.prop(props, "reorder")
         sub.prop(props, "wave_size")
+        sub = col.column()
+        sub.active = props.traversal in {"AUTO", "PACKET", "STREAM", "WAVEFRONT"}
+        sub.prop(props, "shader_batch")
 
 
 class RENDER_PT_coherent_light_paths(CoherentButtonsPanel, bpy.types.Panel):

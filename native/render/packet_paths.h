@@ -28,6 +28,7 @@
 
 #include "../accel/ray_packet.h"
 #include "../accel/ray_stream.h"
+#include "batch_shading.h"
 #include "path_state.h"
 
 namespace coherent {
@@ -105,6 +106,9 @@ struct PacketScratch {
     int lane_path[kMaxPacketRays];
     uint32_t lane_visits[kMaxPacketRays];
     float lane_time[kMaxPacketRays];  // moving instances only: each lane's path time
+    Hit lane_hit[kMaxPacketRays];     // extension: each lane's hit, motion merged
+    bool lane_found[kMaxPacketRays];
+    HitShading shading;               // the packet's shader programs, run together
 };
 
 // trace_tile_packets() below, in steps. The packet being gathered is
@@ -215,11 +219,21 @@ private:
             intersect_singly(bounce, type);
         }
         TraversalCounters motion;  // moving triangles: one ray at a time
+        Hit* hits = scratch_.lane_hit;
+        bool* found = scratch_.lane_found;
+        for (int i = 0; i < pk_.size; ++i) {
+            hits[i] = scratch_.hits.hit(i);
+            found[i] = merge_motion_hit(ctx_, tile_.states[size_t(scratch_.lane_path[i])], hits[i].valid(), hits[i],
+                                        &motion);
+        }
+        // The packet's shader programs run together (batch_shading.h).
+        scratch_.shading.prepare(
+            ctx_, size_t(pk_.size), [&](size_t i) { return found[i] ? &hits[i] : nullptr; },
+            [&](size_t i) -> const PathState& { return tile_.states[size_t(scratch_.lane_path[i])]; });
         for (int i = 0; i < pk_.size; ++i) {
             const size_t p = size_t(scratch_.lane_path[i]);
-            Hit h = scratch_.hits.hit(i);
-            const bool found = merge_motion_hit(ctx_, tile_.states[p], h.valid(), h, &motion);
-            shade_hit<kGlass, kLights>(ctx_, tile_.samplers[p], tile_.states[p], found, h);
+            shade_hit<kGlass, kLights>(ctx_, tile_.samplers[p], tile_.states[p], found[i], hits[i],
+                                       scratch_.shading.at(size_t(i)));
         }
         if (ctx_.motion) book_work(st_, bounce, motion);
         pk_.clear();
@@ -336,6 +350,8 @@ struct StreamScratch {
     std::vector<uint8_t> occluded;
     std::vector<int> path;  // ray -> path
     std::vector<float> times;  // ray -> its path's shutter time (moving instances only)
+    std::vector<uint8_t> found;  // ray -> a surface hit (motion merged)
+    HitShading shading;          // a stretch of the stream's shader programs, run together
 };
 
 namespace stream_detail {
@@ -383,10 +399,21 @@ bool extend(const PathContext& ctx, PathTile& tile, StreamScratch& scratch, Rend
     for (const int p : scratch.path) book_rays(st, bounce, tile.states[size_t(p)].type, 1);
     book_stream_work(st, bounce, ss);
     TraversalCounters motion;
-    for (size_t i = 0; i < scratch.path.size(); ++i) {
-        const size_t p = size_t(scratch.path[i]);
-        const bool found = merge_motion_hit(ctx, tile.states[p], scratch.hits[i].valid(), scratch.hits[i], &motion);
-        shade_hit<kGlass, kLights>(ctx, tile.samplers[p], tile.states[p], found, scratch.hits[i]);
+    const size_t n = scratch.path.size();
+    scratch.found.resize(n);
+    for (size_t i = 0; i < n; ++i)
+        scratch.found[i] = merge_motion_hit(ctx, tile.states[size_t(scratch.path[i])], scratch.hits[i].valid(),
+                                            scratch.hits[i], &motion);
+    for (size_t first = 0; first < n; first += kShadeChunk) {
+        const size_t m = std::min(kShadeChunk, n - first);
+        scratch.shading.prepare(
+            ctx, m, [&](size_t i) { return scratch.found[first + i] ? &scratch.hits[first + i] : nullptr; },
+            [&](size_t i) -> const PathState& { return tile.states[size_t(scratch.path[first + i])]; });
+        for (size_t i = 0; i < m; ++i) {
+            const size_t p = size_t(scratch.path[first + i]);
+            shade_hit<kGlass, kLights>(ctx, tile.samplers[p], tile.states[p], scratch.found[first + i] != 0,
+                                       scratch.hits[first + i], scratch.shading.at(i));
+        }
     }
     if (ctx.motion) book_work(st, bounce, motion);
     return true;

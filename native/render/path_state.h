@@ -341,16 +341,11 @@ inline float pixel_footprint(const Scene& scene, const RenderSettings& rs, const
     return cam.projection == Projection::Orthographic ? pixel : pixel * length(p - cam.position);
 }
 
-// The material at sp: its constants, or for a node graph with non-constant
-// inputs what its shader program computes there (built in `scratch`; a
-// normal map also replaces sp.n). Constant materials take the first return.
-// shadow: the Light Path node's view for a shadow ray (else that of s.ray).
-COHERENT_ALWAYS_INLINE const Material& material_at(const PathContext& ctx, const PathState& s, const Hit& hit,
-                                                    SurfacePoint& sp, std::optional<Material>& scratch,
-                                                    const LightPathInfo* shadow = nullptr) {
+// What a program reads at sp (shader/eval.h). The Light Path input is left
+// to the caller, who owns the LightPathInfo g.path points to.
+COHERENT_ALWAYS_INLINE ShadingGeometry shading_geometry(const PathContext& ctx, const PathState& s, const Hit& hit,
+                                                        const SurfacePoint& sp, const ShaderProgram& program) {
     const Scene& scene = *ctx.scene;
-    const Material& base = scene.materials[sp.material];
-    if (!base.program) return base;
     ShadingGeometry g;
     g.tri = sp.tri;
     if (hit.instance != kInvalidPrim) {
@@ -368,16 +363,43 @@ COHERENT_ALWAYS_INLINE const Material& material_at(const PathContext& ctx, const
     g.ng = sp.ng_f;
     g.wo = sp.wo;
     g.front = sp.front;
+    if (program.uses_bump) g.footprint = pixel_footprint(scene, *ctx.settings, sp.p);
+    return g;
+}
+
+// The Light Path input of a program at `hit` of s.ray. Cycles starts camera
+// rays on the near clip plane: lengths count from there.
+COHERENT_ALWAYS_INLINE LightPathInfo hit_light_path(const PathState& s, const Hit& hit) {
+    return light_path_info(s, hit.t - s.ray.tmin);
+}
+
+// The material at sp: its constants, or for a node graph with non-constant
+// inputs what its shader program computes there (built in `scratch`; a
+// normal map also replaces sp.n). Constant materials take the first return.
+// shadow: the Light Path node's view for a shadow ray (else that of s.ray).
+COHERENT_ALWAYS_INLINE const Material& material_at(const PathContext& ctx, const PathState& s, const Hit& hit,
+                                                    SurfacePoint& sp, std::optional<Material>& scratch,
+                                                    const LightPathInfo* shadow = nullptr) {
+    const Scene& scene = *ctx.scene;
+    const Material& base = scene.materials[sp.material];
+    if (!base.program) return base;
+    ShadingGeometry g = shading_geometry(ctx, s, hit, sp, *base.program);
     LightPathInfo path;
     if (base.program->uses_light_path) {
-        // Cycles starts camera rays on the near clip plane: lengths count from there.
-        path = shadow ? *shadow : light_path_info(s, hit.t - s.ray.tmin);
+        path = shadow ? *shadow : hit_light_path(s, hit);
         g.path = &path;
     }
-    if (base.program->uses_bump) g.footprint = pixel_footprint(scene, *ctx.settings, sp.p);
     evaluate_material(scene, base, g, scratch.emplace(), sp.n);
     return *scratch;
 }
+
+// A hit shaded ahead of shade_hit() with others (render/batch_shading.h):
+// its surface point and, for a program material, what the program computed.
+struct PreShaded {
+    SurfacePoint sp;                     // as surface_point() gives it
+    const Material* material = nullptr;  // what the program computed; null: the scene's constant one
+    Vec3f n{0.0f};                       // the shading normal the program leaves
+};
 
 // Analytic lights are invisible to camera rays (measured in Cycles) and
 // transparent: every one in front of the surface (or of nothing) adds its emission.
@@ -645,7 +667,7 @@ inline void record_first_hit_passes(const PathContext& ctx, const PathSampler& p
 // shadow ray queued even when it ended (!s.alive): drivers resolve it either way.
 template <bool kGlass, bool kLights>
 inline void shade_hit(const PathContext& ctx, const PathSampler& ps, PathState& s, bool found,
-                      const Hit& hit) {
+                      const Hit& hit, const shading::PreShaded* pre = nullptr) {
     using namespace shading;
     const Scene& scene = *ctx.scene;
     s.alive = false;  // until a next ray is set up
@@ -655,7 +677,7 @@ inline void shade_hit(const PathContext& ctx, const PathSampler& ps, PathState& 
         shade_miss<kLights>(ctx, s);
         return;
     }
-    SurfacePoint sp = surface_point(scene, s, hit);
+    SurfacePoint sp = pre ? pre->sp : surface_point(scene, s, hit);
     if (s.bounce == 0 && s.transparent_bounce == 0) {
         s.out.depth = dot(sp.p - scene.camera.position, scene.camera.forward);
         s.out.normal = sp.n;
@@ -667,7 +689,8 @@ inline void shade_hit(const PathContext& ctx, const PathSampler& ps, PathState& 
 
     std::optional<Material> scratch;
     const Vec3f interpolated_n = sp.n;
-    const Material& mat = material_at(ctx, s, hit, sp, scratch);
+    if (pre && pre->material) sp.n = pre->n;
+    const Material& mat = pre && pre->material ? *pre->material : material_at(ctx, s, hit, sp, scratch);
     if (s.features.pending) {
         record_emission_feature(s.features, mat.emission, s.out.albedo);
         record_surface_features(mat, sp.n, dot(sp.n, sp.wo), scene.camera, s.features, s.out.albedo,

@@ -244,6 +244,9 @@ std::vector<SettingSpec> tracing_rows() {
         "wavefront traversal: how rays are sorted for coherence before tracing"));
     t.push_back(integer("wave_size", "Wave Size", "Tracing", &RenderSettings::wave_size, 1, 1 << 24, 1 << 20,
                         "wavefront traversal: paths in flight per wave (bounds memory, ~100 bytes a path)"));
+    t.push_back(flag("shader_batch", "Batch Shading", "Tracing", &RenderSettings::shader_batch,
+                     "packet, stream and wavefront traversal: run the shader programs of the hits traced "
+                     "together as SIMD batches per material (same image); off = one hit at a time"));
     t.push_back(integer("ao_samples", "AO Samples", "Tracing", &RenderSettings::ao_samples, 1, 1024, 256,
                         "ambient occlusion: occlusion rays per camera sample"));
     t.push_back(real("ao_distance", "AO Distance", "Tracing", &RenderSettings::ao_distance, 0.0, 1e30, 100.0,

@@ -96,6 +96,9 @@ struct RenderSettings {
     int bvh_width = 8;                  // 2, 4 or 8 (single-ray and stream traversal)
     ReorderMode reorder = ReorderMode::None;  // wavefront only
     int wave_size = 1 << 16;            // wavefront: paths in flight per wave (bounds memory)
+    // Packet, stream and wavefront traversal: shader programs run over the
+    // hits of a packet / queue stretch together (render/batch_shading.h).
+    bool shader_batch = true;
     // Ambient occlusion: rays per camera sample, and their length
     // (<= 0: a tenth of the scene's bounding-box diagonal).
     int ao_samples = 16;

@@ -6,6 +6,7 @@
 
 #include "../accel/ray_packet.h"
 #include "../core/thread_time.h"
+#include "batch_shading.h"
 #include "kernel_variants.h"
 #include "path_state.h"
 
@@ -88,10 +89,12 @@ struct WavefrontRenderer::Buffers {
     std::vector<uint32_t> shaded;   // paths shaded in the current bounce
     RayQueue queue;
     TraceScratch trace;
+    HitShading shading;  // a queue stretch's programs, run together
 
     size_t bytes() const {
         return capacity_bytes(px) + capacity_bytes(py) + capacity_bytes(samplers) + capacity_bytes(states) +
-               capacity_bytes(visits) + capacity_bytes(shaded) + queue.bytes() + trace.bytes();
+               capacity_bytes(visits) + capacity_bytes(shaded) + queue.bytes() + trace.bytes() +
+               shading.bytes();
     }
 };
 
@@ -264,16 +267,25 @@ size_t queue_extension_rays(Buffers& b, int bounce, RenderStats& st) {
     return b.queue.size();
 }
 
-// Shades the traced extension queue, path by path. Moving triangles
-// (motion blur) are merged in one ray at a time.
+// Shades the traced extension queue, path by path, each stretch's shader
+// programs run together first (batch_shading.h). Moving triangles (motion
+// blur) are merged in one ray at a time.
 template <bool kGlass, bool kLights>
 void shade_queue(const PathContext& ctx, Buffers& b, int bounce, RenderStats& st) {
     RayQueue& q = b.queue;
     TraversalCounters motion;
-    for (size_t i = 0; i < q.size(); ++i) {
-        const uint32_t p = q.owner[i];
-        const bool found = merge_motion_hit(ctx, b.states[p], q.flag[i] != 0, q.hits[i], &motion);
-        shade_hit<kGlass, kLights>(ctx, b.samplers[p], b.states[p], found, q.hits[i]);
+    for (size_t i = 0; i < q.size(); ++i)
+        q.flag[i] = merge_motion_hit(ctx, b.states[q.owner[i]], q.flag[i] != 0, q.hits[i], &motion) ? 1 : 0;
+    for (size_t first = 0; first < q.size(); first += kShadeChunk) {
+        const size_t n = std::min(kShadeChunk, q.size() - first);
+        b.shading.prepare(
+            ctx, n, [&](size_t i) { return q.flag[first + i] ? &q.hits[first + i] : nullptr; },
+            [&](size_t i) -> const PathState& { return b.states[q.owner[first + i]]; });
+        for (size_t i = 0; i < n; ++i) {
+            const uint32_t p = q.owner[first + i];
+            shade_hit<kGlass, kLights>(ctx, b.samplers[p], b.states[p], q.flag[first + i] != 0, q.hits[first + i],
+                                       b.shading.at(i));
+        }
     }
     if (ctx.motion) book_work(st, bounce, motion);
 }

@@ -12,6 +12,7 @@
 #include "node_color.h"
 #include "node_math.h"
 #include "node_procedural.h"
+#include "eval_registers.h"
 #include "program.h"
 #include "sky_model.h"
 #include "textures.h"
@@ -19,23 +20,9 @@
 namespace coherent {
 
 using namespace shader;
+using eval_detail::Registers;
 
 namespace {
-
-struct Registers {
-    float* r;
-    float f(uint16_t i) const { return r[i]; }
-    Vec3f v(uint16_t i) const { return {r[i], r[i + 1], r[i + 2]}; }
-    void set(uint16_t i, float x) const {
-        if (i != kNoRegister) r[i] = x;
-    }
-    void set(uint16_t i, const Vec3f& x) const {
-        if (i == kNoRegister) return;
-        r[i] = x.x;
-        r[i + 1] = x.y;
-        r[i + 2] = x.z;
-    }
-};
 
 template <class T>
 T corner_lerp(const T* c, float u, float v) {
@@ -366,87 +353,94 @@ void run_adjust(const Scene& scene, const ShaderProgram& prog, const ShadingGeom
     }
 }
 
-void run(const Scene& scene, const ShaderProgram& prog, const ShadingGeometry& g, const Registers& r) {
-    for (const ShaderInstr& in : prog.code) {
-        switch (in.op) {
-            case ShaderOp::Math: {
-                float x = svm_math(MathOp(in.mode & 0xFF), r.f(in.in[0]), r.f(in.in[1]), r.f(in.in[2]));
-                if (in.mode & kClampBit) x = saturatef(x);
-                r.set(in.out[0], x);
-                break;
-            }
-            case ShaderOp::VectorMath: {
-                Vec3f vec;
-                float value;
-                svm_vector_math(VectorMathOp(in.mode), r.v(in.in[0]), r.v(in.in[1]), r.v(in.in[2]), r.f(in.in[3]),
-                                vec, value);
-                r.set(in.out[0], vec);
-                r.set(in.out[1], value);
-                break;
-            }
-            case ShaderOp::MixColor:
-            case ShaderOp::MixFloat:
-            case ShaderOp::MixVector: mix(in, r); break;
-            case ShaderOp::Mapping:
-                r.set(in.out[0], svm_mapping(in.mode, r.v(in.in[0]), r.v(in.in[1]), r.v(in.in[2]), r.v(in.in[3])));
-                break;
-            case ShaderOp::ColorRamp: {
-                Vec3f color;
-                float alpha;
-                ramp_lookup(prog.data.data() + in.data, kRampTableSize, r.f(in.in[0]), in.mode != 0, color, alpha);
-                r.set(in.out[0], color);
-                r.set(in.out[1], alpha);
-                break;
-            }
-            case ShaderOp::Invert: {
-                const Vec3f c = r.v(in.in[1]);
-                r.set(in.out[0], interp(c, Vec3f(1.0f) - c, r.f(in.in[0])));
-                break;
-            }
-            case ShaderOp::RgbToBw: r.set(in.out[0], rgb_to_gray(r.v(in.in[0]))); break;
-            case ShaderOp::Combine: r.set(in.out[0], Vec3f{r.f(in.in[0]), r.f(in.in[1]), r.f(in.in[2])}); break;
-            case ShaderOp::Checker: {
-                const float f = svm_checker(r.v(in.in[0]) * r.f(in.in[3]));
-                r.set(in.out[0], f == 1.0f ? r.v(in.in[1]) : r.v(in.in[2]));
-                r.set(in.out[1], f);
-                break;
-            }
-            case ShaderOp::ImageTexture: image_texture(scene, in, r); break;
-            case ShaderOp::TexCoord: r.set(in.out[0], texture_coordinate(scene, g, TexCoordKind(in.mode), in.data)); break;
-            case ShaderOp::NormalMap:
-                r.set(in.out[0], normal_map(scene, g, NormalMapSpace(in.mode), r.f(in.in[0]), r.v(in.in[1])));
-                break;
-            case ShaderOp::Clamp: r.set(in.out[0], svm_clamp(in.mode, r.f(in.in[0]), r.f(in.in[1]), r.f(in.in[2]))); break;
-            // Procedural textures
-            case ShaderOp::TexWhiteNoise:
-            case ShaderOp::TexNoise:
-            case ShaderOp::TexVoronoi:
-            case ShaderOp::TexMusgrave:
-            case ShaderOp::TexWave:
-            case ShaderOp::TexGradient:
-            case ShaderOp::TexMagic:
-            case ShaderOp::TexBrick: run_procedural(in, prog.data.data(), r.r); break;
-            // Colour adjustments, inputs and bump
-            case ShaderOp::Curves:
-            case ShaderOp::FloatCurve:
-            case ShaderOp::HueSatVal:
-            case ShaderOp::Gamma:
-            case ShaderOp::BrightContrast:
-            case ShaderOp::MapRange:
-            case ShaderOp::VectorMapRangeFactor:
-            case ShaderOp::VectorMapRangeApply:
-            case ShaderOp::ColorConvert:
-            case ShaderOp::Fresnel:
-            case ShaderOp::Geometry:
-            case ShaderOp::LightPath:
-            case ShaderOp::Attribute:
-            case ShaderOp::BumpTexCoord:
-            case ShaderOp::Bump: run_adjust(scene, prog, g, in, r); break;
-            case ShaderOp::SkyTexture: r.set(in.out[0], eval_packed_sky(prog.data.data() + in.data, r.v(in.in[0]))); break;
-            case ShaderOp::Count: break;
+}  // namespace
+
+namespace eval_detail {
+
+void run_instruction(const Scene& scene, const ShaderProgram& prog, const ShadingGeometry& g, const ShaderInstr& in,
+                     const Registers& r) {
+    switch (in.op) {
+        case ShaderOp::Math: {
+            float x = svm_math(MathOp(in.mode & 0xFF), r.f(in.in[0]), r.f(in.in[1]), r.f(in.in[2]));
+            if (in.mode & kClampBit) x = saturatef(x);
+            r.set(in.out[0], x);
+            break;
         }
+        case ShaderOp::VectorMath: {
+            Vec3f vec;
+            float value;
+            svm_vector_math(VectorMathOp(in.mode), r.v(in.in[0]), r.v(in.in[1]), r.v(in.in[2]), r.f(in.in[3]),
+                            vec, value);
+            r.set(in.out[0], vec);
+            r.set(in.out[1], value);
+            break;
+        }
+        case ShaderOp::MixColor:
+        case ShaderOp::MixFloat:
+        case ShaderOp::MixVector: mix(in, r); break;
+        case ShaderOp::Mapping:
+            r.set(in.out[0], svm_mapping(in.mode, r.v(in.in[0]), r.v(in.in[1]), r.v(in.in[2]), r.v(in.in[3])));
+            break;
+        case ShaderOp::ColorRamp: {
+            Vec3f color;
+            float alpha;
+            ramp_lookup(prog.data.data() + in.data, kRampTableSize, r.f(in.in[0]), in.mode != 0, color, alpha);
+            r.set(in.out[0], color);
+            r.set(in.out[1], alpha);
+            break;
+        }
+        case ShaderOp::Invert: {
+            const Vec3f c = r.v(in.in[1]);
+            r.set(in.out[0], interp(c, Vec3f(1.0f) - c, r.f(in.in[0])));
+            break;
+        }
+        case ShaderOp::RgbToBw: r.set(in.out[0], rgb_to_gray(r.v(in.in[0]))); break;
+        case ShaderOp::Combine: r.set(in.out[0], Vec3f{r.f(in.in[0]), r.f(in.in[1]), r.f(in.in[2])}); break;
+        case ShaderOp::Checker: {
+            const float f = svm_checker(r.v(in.in[0]) * r.f(in.in[3]));
+            r.set(in.out[0], f == 1.0f ? r.v(in.in[1]) : r.v(in.in[2]));
+            r.set(in.out[1], f);
+            break;
+        }
+        case ShaderOp::ImageTexture: image_texture(scene, in, r); break;
+        case ShaderOp::TexCoord: r.set(in.out[0], texture_coordinate(scene, g, TexCoordKind(in.mode), in.data)); break;
+        case ShaderOp::NormalMap:
+            r.set(in.out[0], normal_map(scene, g, NormalMapSpace(in.mode), r.f(in.in[0]), r.v(in.in[1])));
+            break;
+        case ShaderOp::Clamp: r.set(in.out[0], svm_clamp(in.mode, r.f(in.in[0]), r.f(in.in[1]), r.f(in.in[2]))); break;
+        // Procedural textures
+        case ShaderOp::TexWhiteNoise:
+        case ShaderOp::TexNoise:
+        case ShaderOp::TexVoronoi:
+        case ShaderOp::TexMusgrave:
+        case ShaderOp::TexWave:
+        case ShaderOp::TexGradient:
+        case ShaderOp::TexMagic:
+        case ShaderOp::TexBrick: run_procedural(in, prog.data.data(), r.r, r.stride); break;
+        // Colour adjustments, inputs and bump
+        case ShaderOp::Curves:
+        case ShaderOp::FloatCurve:
+        case ShaderOp::HueSatVal:
+        case ShaderOp::Gamma:
+        case ShaderOp::BrightContrast:
+        case ShaderOp::MapRange:
+        case ShaderOp::VectorMapRangeFactor:
+        case ShaderOp::VectorMapRangeApply:
+        case ShaderOp::ColorConvert:
+        case ShaderOp::Fresnel:
+        case ShaderOp::Geometry:
+        case ShaderOp::LightPath:
+        case ShaderOp::Attribute:
+        case ShaderOp::BumpTexCoord:
+        case ShaderOp::Bump: run_adjust(scene, prog, g, in, r); break;
+        case ShaderOp::SkyTexture: r.set(in.out[0], eval_packed_sky(prog.data.data() + in.data, r.v(in.in[0]))); break;
+        case ShaderOp::Count: break;
     }
 }
+
+}  // namespace eval_detail
+
+namespace {
 
 float finite_or(float x, float fallback) { return std::isfinite(x) ? x : fallback; }
 // Non-negative, with non-finite components 0 (each on its own, as a NaN in
@@ -455,6 +449,10 @@ Vec3f non_negative(const Vec3f& v) {
     return {std::max(finite_or(v.x, 0.0f), 0.0f), std::max(finite_or(v.y, 0.0f), 0.0f),
             std::max(finite_or(v.z, 0.0f), 0.0f)};
 }
+
+}  // namespace
+
+namespace eval_detail {
 
 void apply_output(const ShaderOutput& o, const Registers& r, const ShadingGeometry& g, Material& out, Vec3f& n) {
     Closure& c = out.closures[o.closure];
@@ -479,6 +477,22 @@ void apply_output(const ShaderOutput& o, const Registers& r, const ShadingGeomet
     }
 }
 
+void start_output(const Material& mat, const ShadingGeometry& g, Material& out, Vec3f& n) {
+    out.closures = mat.closures;
+    out.weights = mat.weights;
+    out.closure_count = mat.closure_count;
+    out.emission = mat.emission;
+    n = g.n;
+}
+
+}  // namespace eval_detail
+
+namespace {
+
+void run(const Scene& scene, const ShaderProgram& prog, const ShadingGeometry& g, const Registers& r) {
+    for (const ShaderInstr& in : prog.code) eval_detail::run_instruction(scene, prog, g, in, r);
+}
+
 }  // namespace
 
 void run_constant_program(const ShaderProgram& program, float* registers) {
@@ -488,16 +502,12 @@ void run_constant_program(const ShaderProgram& program, float* registers) {
 
 void evaluate_material(const Scene& scene, const Material& mat, const ShadingGeometry& g, Material& out, Vec3f& n) {
     const ShaderProgram& prog = *mat.program;
-    out.closures = mat.closures;
-    out.weights = mat.weights;
-    out.closure_count = mat.closure_count;
-    out.emission = mat.emission;
-    n = g.n;
+    eval_detail::start_output(mat, g, out, n);
     float storage[kMaxShaderRegisters];
     std::memcpy(storage, prog.constants.data(), prog.constants.size() * sizeof(float));
     const Registers r{storage};
     run(scene, prog, g, r);
-    for (const ShaderOutput& o : prog.outputs) apply_output(o, r, g, out, n);
+    for (const ShaderOutput& o : prog.outputs) eval_detail::apply_output(o, r, g, out, n);
 }
 
 }  // namespace coherent

@@ -79,23 +79,26 @@ std::string validate_procedural(const ShaderInstr& in, const std::vector<float>&
 namespace {
 
 // The instruction's registers, through its list.
+// Register i lives at r[i * stride] (1 for one shading point, the lane
+// count for a batch's register file, shader/eval_batch.h).
 struct Slots {
     const float* list;
     float* r;
     int inputs;
-    float f(int k) const { return r[size_t(list[k])]; }
+    size_t stride;
+    float f(int k) const { return r[size_t(list[k]) * stride]; }
     Vec3f v(int k) const {
-        const float* p = r + size_t(list[k]);
-        return {p[0], p[1], p[2]};
+        const float* p = r + size_t(list[k]) * stride;
+        return {p[0], p[stride], p[2 * stride]};
     }
     bool wants(int output) const { return list[inputs + output] != float(kNoRegister); }
     void set(int output, float x) const {
-        if (wants(output)) r[size_t(list[inputs + output])] = x;
+        if (wants(output)) r[size_t(list[inputs + output]) * stride] = x;
     }
     void set(int output, const Vec3f& x) const {
         if (!wants(output)) return;
-        float* p = r + size_t(list[inputs + output]);
-        p[0] = x.x, p[1] = x.y, p[2] = x.z;
+        float* p = r + size_t(list[inputs + output]) * stride;
+        p[0] = x.x, p[stride] = x.y, p[2 * stride] = x.z;
     }
 };
 
@@ -257,8 +260,8 @@ void brick(uint16_t mode, const Slots& s) {
 
 }  // namespace
 
-void run_procedural(const ShaderInstr& in, const float* data, float* registers) {
-    const Slots s{data + in.data, registers, procedural_layout(in.op).inputs};
+void run_procedural(const ShaderInstr& in, const float* data, float* registers, size_t stride) {
+    const Slots s{data + in.data, registers, procedural_layout(in.op).inputs, stride};
     switch (in.op) {
         case ShaderOp::TexWhiteNoise: white_noise(in.mode, s); break;
         case ShaderOp::TexNoise: noise(in.mode, s); break;

@@ -40,8 +40,9 @@ ProceduralLayout procedural_layout(ShaderOp op);
 // `register_count`; else what is wrong.
 std::string validate_procedural(const ShaderInstr& in, const std::vector<float>& data, size_t register_count);
 
-// Runs a validated procedural instruction on the register file.
-void run_procedural(const ShaderInstr& in, const float* data, float* registers);
+// Runs a validated procedural instruction on the register file, whose
+// register i is registers[i * stride].
+void run_procedural(const ShaderInstr& in, const float* data, float* registers, size_t stride = 1);
 
 constexpr uint16_t voronoi_mode(int dimensions, int feature, int metric) {
     return uint16_t(dimensions | feature << 4 | metric << 8);
