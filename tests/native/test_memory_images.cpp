@@ -5,6 +5,7 @@
 
 #include <cmath>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "shader/memory_images.h"
@@ -51,6 +52,30 @@ TEST(MemoryImages, BytePixelsLookUpAsTheirFloatValues) {
         how.interp = interp;
         const std::vector<float> a = lookups(store, bytes, how), b = lookups(store, floats, how);
         for (size_t i = 0; i < a.size(); ++i) EXPECT_NEAR(a[i], b[i], 1e-6f) << i;
+    }
+}
+
+// Odd sizes span several tiles, partly filled at the right and bottom edges
+// (100 x 70: 64 x 64 tiles), or one padded tile (1000 x 3: 1024 x 8).
+TEST(MemoryImages, EveryTexelOfAnOddSizedImageReadsBack) {
+    for (auto [width, height] : {std::pair{100, 70}, std::pair{1000, 3}}) {
+        std::vector<uint8_t> bytes(size_t(width) * height * 3);
+        for (int y = 0; y < height; ++y)
+            for (int x = 0; x < width; ++x)
+                for (int c = 0; c < 3; ++c) bytes[(size_t(y) * width + x) * 3 + c] = uint8_t(x * 7 + y * 13 + c * 5);
+        TextureStore store(64);
+        const uint32_t id = store.add_bytes("odd", width, height, 3, bytes.data());
+        TextureLookup closest;
+        closest.interp = TextureLookup::Interp::Closest;
+        for (int y = 0; y < height; ++y)
+            for (int x = 0; x < width; ++x) {
+                float c[4];
+                // Texel centres; rows run top down, v bottom up.
+                store.lookup(id, (x + 0.5f) / width, 1.0f - (y + 0.5f) / height, closest, c);
+                for (int k = 0; k < 3; ++k)  // (OIIO's byte to float may be an ulp from value / 255)
+                    ASSERT_NEAR(c[k], float(uint8_t(x * 7 + y * 13 + k * 5)) / 255.0f, 1e-7f)
+                        << width << " " << x << "," << y;
+            }
     }
 }
 
