@@ -17,7 +17,7 @@ materials with the images' mean colours as constant Base Colors and no
 Normal Map. Both engines render both scenes (no denoising, fixed seed, fixed
 thread count); one warm-up render per engine and scene is not counted, then
 the loop alternates engine and scene REPEATS times. Times are the wall time of
-bpy.ops.render.render (sync/export, image upload, BVH, render), medians.
+bpy.ops.render.render (sync/export, image hand-over, BVH, render), medians.
 ratio = textured / untextured seconds per engine; the target is
 COHERENT's ratio <= Cycles' ratio.
 """
@@ -220,6 +220,8 @@ def main():
         print("COHERENT's own split, last untextured and textured runs:")
         print("  " + splits[-2])
         print("  " + splits[-1])
+        memory = [re.search(r"images.*", line).group(0) for line in splits if "images" in line]
+        print(f"Texture memory, first and last of {len(memory)} textured runs: {memory[0]}; {memory[-1]}")
 
 
 if __name__ == "__main__":

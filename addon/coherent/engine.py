@@ -228,11 +228,14 @@ def _format_time(seconds):
 
 
 def _texture_summary(scene):
-    """', N images, X MB texture cache' when the scene has image textures, else ''."""
+    """', N images (K reused), X MB in-memory pixels, Y MB texture cache' when the scene has image
+    textures, else ''. Reused: in-memory images held from an earlier render, not handed over again."""
     textures = scene.texture_stats()
     if not textures["images"]:
         return ""
-    return f", {textures['images']} images, {textures['memory_bytes'] / 2**20:.1f} MB texture cache"
+    return (f", {textures['images']} images ({textures['reused']} reused), "
+            f"{textures['buffer_bytes'] / 2**20:.1f} MB in-memory pixels, "
+            f"{textures['memory_bytes'] / 2**20:.1f} MB texture cache")
 
 
 def _format_error(estimate):

@@ -80,21 +80,47 @@ std::vector<ShaderOutput> read_outputs(const py::handle& obj) {
     return outputs;
 }
 
-uint32_t add_image(PyScene& self, const std::string& label, const py::handle& path, const py::handle& pixels) {
-    self.check_mutable("add_image");
+TextureStore& texture_store(PyScene& self) {
     auto& store = self.scene.shading.textures;
     if (!store) store = std::make_shared<TextureStore>();
-    if (!pixels.is_none()) {
-        FloatArray a = float_rows(pixels, {-1, -1, -1}, "pixels");
-        const int channels = int(a.shape(2));
-        if (channels < 1 || channels > 4) throw py::value_error("pixels: expected 1 to 4 channels");
-        py::gil_scoped_release unlocked;
-        return store->add_pixels(label, int(a.shape(1)), int(a.shape(0)), channels, a.data());
+    return *store;
+}
+
+// pixels: uint8 (H, W, C) stays bytes; anything else is read as float.
+uint32_t add_pixel_image(TextureStore& store, const std::string& label, const py::handle& pixels,
+                         const std::string& key) {
+    using ByteArray = py::array_t<uint8_t, py::array::c_style>;
+    bool bytes = false;
+    if (py::isinstance<py::array>(pixels)) {
+        const py::dtype type = py::reinterpret_borrow<py::array>(pixels).dtype();
+        bytes = type.kind() == 'u' && type.itemsize() == 1;
     }
+    py::array a = bytes ? py::array(ByteArray::ensure(pixels)) : py::array(float_rows(pixels, {-1, -1, -1}, "pixels"));
+    if (a.ndim() != 3) throw py::value_error("pixels: wrong shape");
+    const int channels = int(a.shape(2));
+    if (channels < 1 || channels > 4) throw py::value_error("pixels: expected 1 to 4 channels");
+    const int width = int(a.shape(1)), height = int(a.shape(0));
+    py::gil_scoped_release unlocked;
+    if (bytes) return store.add_bytes(label, width, height, channels, static_cast<const uint8_t*>(a.data()), key);
+    return store.add_pixels(label, width, height, channels, static_cast<const float*>(a.data()), key);
+}
+
+uint32_t add_image(PyScene& self, const std::string& label, const py::handle& path, const py::handle& pixels,
+                   const std::string& key) {
+    self.check_mutable("add_image");
+    TextureStore& store = texture_store(self);
+    if (!pixels.is_none()) return add_pixel_image(store, label, pixels, key);
     if (path.is_none()) throw py::value_error("add_image: give a path or pixels");
     const std::string file = path.cast<std::string>();
     py::gil_scoped_release unlocked;
-    return store->add_file(file, label);
+    return store.add_file(file, label);
+}
+
+py::object add_retained_image(PyScene& self, const std::string& label, const std::string& key) {
+    self.check_mutable("add_retained_image");
+    uint32_t index = 0;
+    if (!texture_store(self).add_retained(label, key, index)) return py::none();
+    return py::int_(index);
 }
 
 py::dict texture_stats(const PyScene& self) {
@@ -102,6 +128,8 @@ py::dict texture_stats(const PyScene& self) {
     const auto& store = self.scene.shading.textures;
     d["images"] = store ? store->size() : size_t(0);
     d["memory_bytes"] = store ? store->memory_bytes() : size_t(0);
+    d["buffer_bytes"] = store ? store->buffer_bytes() : size_t(0);
+    d["reused"] = store ? store->reused() : size_t(0);
     d["warnings"] = store ? store->warnings() : std::vector<std::string>{};
     return d;
 }
@@ -195,11 +223,16 @@ void bind_shading(py::module_& m) {
 whether normal maps need tangents, whether object-space coordinates are read, and
 the colour attributes (by name, in the order add_mesh's `colors` lists them).)doc");
     scene.def("add_image", &add_image, py::arg("label"), py::kw_only(), py::arg("path") = py::none(),
-              py::arg("pixels") = py::none(),
+              py::arg("pixels") = py::none(), py::arg("key") = "",
               R"doc(Adds an image for Image Texture instructions; returns its index.
-path: an image file OpenImageIO reads; or pixels: float (H, W, C) with C in 1..4,
-first row at the top. An unreadable or empty image renders magenta and is listed
+path: an image file OpenImageIO reads; or pixels: (H, W, C) with C in 1..4, first
+row at the top, uint8 (kept as bytes, read as value / 255) or float.
+key ("identity\nversion"): the pixels are retained after this scene goes, for
+add_retained_image. An unreadable or empty image renders magenta and is listed
 in texture_stats()['warnings'] under `label`.)doc");
+    scene.def("add_retained_image", &add_retained_image, py::arg("label"), py::arg("key"),
+              "Adds the image an earlier add_image retained under `key` (its pixels not handed over again); "
+              "returns its index, or None when no image is held under that key.");
     m.def(
         "fold_shader_constants",
         [](const py::dict& program) {
@@ -243,7 +276,8 @@ in texture_stats()['warnings'] under `label`.)doc");
         py::arg("vertex_count"), py::arg("edges"), py::arg("first_vertex"),
         "Geometry > Random Per Island as Cycles 3.4 computes it (scene/mesh_islands.h): per triangle, from the "
         "mesh's edges (vertex index pairs, in edge order) and each triangle's first vertex.");
-    scene.def("texture_stats", &texture_stats, "{'images', 'memory_bytes', 'warnings'} of the scene's images.");
+    scene.def("texture_stats", &texture_stats, "{'images', 'memory_bytes' (OIIO cache), 'buffer_bytes' (in-memory pixels), "
+              "'reused' (images add_retained_image found held), 'warnings'} of the scene's images.");
 }
 
 }  // namespace coherent::python

@@ -1,87 +1,38 @@
 // TextureStore: OpenImageIO's TextureSystem behind a small interface. See textures.h.
 #include "textures.h"
 
+#include "memory_images.h"
+
 #include <OpenImageIO/imagecache.h>
 #include <OpenImageIO/imageio.h>
 #include <OpenImageIO/texture.h>
 
-#include <atomic>
 #include <cmath>
 #include <cstring>
-#include <map>
 
 namespace coherent {
 
 namespace {
 
-// --- in-memory images: an OIIO image format whose "files" are pixel buffers --
-
-constexpr const char* kMemoryExtension = "coherentpixels";
-
 // Sets NaN and infinite values to 0 (what Cycles' image loader does); returns how many.
-size_t zero_non_finite(std::vector<float>& values) {
+size_t zero_non_finite(float* values, size_t n) {
     size_t count = 0;
-    for (float& v : values)
-        if (!std::isfinite(v)) {
-            v = 0.0f;
+    for (size_t i = 0; i < n; ++i)
+        if (!std::isfinite(values[i])) {
+            values[i] = 0.0f;
             ++count;
         }
     return count;
 }
 
-struct PixelBuffer {
-    int width = 0, height = 0, channels = 0;
-    std::vector<float> pixels;
-};
-
-// Buffers by file name. OIIO's format registry takes a plain function
-// pointer as the reader factory, so the reader finds its buffer here.
-std::mutex& registry_mutex() {
-    static std::mutex* m = new std::mutex;  // outlives static destruction, like the texture system
-    return *m;
-}
-std::map<std::string, std::shared_ptr<const PixelBuffer>>& registry() {
-    static auto* r = new std::map<std::string, std::shared_ptr<const PixelBuffer>>;
-    return *r;
-}
-
-class MemoryImageInput final : public OIIO::ImageInput {
-public:
-    const char* format_name() const override { return "coherent_pixels"; }
-    bool open(const std::string& name, OIIO::ImageSpec& newspec) override {
-        {
-            std::lock_guard<std::mutex> lock(registry_mutex());
-            auto it = registry().find(name);
-            if (it == registry().end()) return false;
-            buffer_ = it->second;
-        }
-        m_spec = OIIO::ImageSpec(buffer_->width, buffer_->height, buffer_->channels, OIIO::TypeDesc::FLOAT);
-        newspec = m_spec;
-        return true;
-    }
-    bool close() override {
-        buffer_.reset();
-        return true;
-    }
-    bool read_native_scanline(int subimage, int miplevel, int y, int z, void* data) override {
-        if (!buffer_ || subimage != 0 || miplevel != 0 || y < 0 || y >= buffer_->height) return false;
-        const size_t row = size_t(buffer_->width) * size_t(buffer_->channels);
-        std::memcpy(data, buffer_->pixels.data() + size_t(y) * row, row * sizeof(float));
-        return true;
-    }
-
-private:
-    std::shared_ptr<const PixelBuffer> buffer_;
-};
-
-OIIO::ImageInput* create_memory_input() { return new MemoryImageInput; }
-
-void declare_memory_format() {
-    static std::once_flag once;
-    std::call_once(once, [] {
-        static const char* extensions[] = {kMemoryExtension, nullptr};
-        OIIO::declare_imageio_format("coherent_pixels", create_memory_input, extensions, nullptr, nullptr, "1");
-    });
+std::shared_ptr<PixelBuffer> new_buffer(int width, int height, int channels, bool is_float) {
+    auto buffer = std::make_shared<PixelBuffer>();
+    buffer->width = width;
+    buffer->height = height;
+    buffer->channels = channels;
+    buffer->is_float = is_float;
+    buffer->bytes.resize(size_t(height) * buffer->row_bytes());
+    return buffer;
 }
 
 std::string one_line(std::string s) {
@@ -99,22 +50,25 @@ struct TextureStore::Image {
     OIIO::TextureSystem::TextureHandle* handle = nullptr;
     int channels = 0;
     bool missing = true;
-    bool in_memory = false;
+    bool in_memory = false;  // path names a MemoryImages buffer this store holds one use of
 };
 
 // One texture system for the process, never destroyed: destroying one inside
 // Blender (at Python shutdown) corrupts the heap that OpenColorIO's exit-time
 // destructors then free (a crash on quit), and one cache under one memory
 // limit is what OIIO is designed for. Scenes keep their images apart by file
-// name (in-memory images get unique names) and invalidate them when they go.
+// name (each in-memory image gets its own) and forget them when they go.
 OIIO::TextureSystem* process_texture_system() {
     static OIIO::TextureSystem* ts = [] {
-        declare_memory_format();
+        declare_memory_image_format();
         OIIO::TextureSystem* t = OIIO::TextureSystem::create(false);
         t->attribute("autotile", 64);
         t->attribute("automip", 1);
         t->attribute("accept_untiled", 1);
         t->attribute("accept_unmipped", 1);
+        // Files' alpha as stored (straight in a PNG), as Blender and Cycles read
+        // it: the shader associates it where the image's alpha mode says so.
+        t->attribute("unassociatedalpha", 1);
         return t;
     }();
     return ts;
@@ -127,13 +81,21 @@ struct TextureStore::Oiio {
 TextureStore::TextureStore(size_t cache_megabytes) : oiio_(std::make_unique<Oiio>()) {
     oiio_->ts = process_texture_system();
     oiio_->ts->attribute("max_memory_MB", float(cache_megabytes));
+    // Pixel buffers kept for later renders count against the same limit.
+    MemoryImages::instance().set_retention_limit(cache_megabytes << 20);
 }
 
+// Files are forgotten (a file rewritten within the second of its modification
+// time must still be read again); in-memory images are released, and those the
+// registry drops are forgotten.
 TextureStore::~TextureStore() {
-    for (const auto& image : images_) oiio_->ts->invalidate(OIIO::ustring(image->path), true);
-    std::lock_guard<std::mutex> lock(registry_mutex());
     for (const auto& image : images_)
-        if (image->in_memory) registry().erase(image->path);
+        if (image->in_memory) forget(MemoryImages::instance().release(image->path));
+        else if (!image->path.empty()) oiio_->ts->invalidate(OIIO::ustring(image->path), true);
+}
+
+void TextureStore::forget(const std::vector<std::string>& names) {
+    for (const std::string& name : names) oiio_->ts->invalidate(OIIO::ustring(name), true);
 }
 
 void TextureStore::check_image(Image& image) {
@@ -161,36 +123,64 @@ uint32_t TextureStore::add_file(const std::string& path, const std::string& labe
     return uint32_t(images_.size() - 1);
 }
 
-uint32_t TextureStore::add_pixels(const std::string& label, int width, int height, int channels,
-                                  const float* pixels) {
-    static std::atomic<uint64_t> serial{0};
+uint32_t TextureStore::add_memory_image(const std::string& label, const std::string& name,
+                                        std::vector<std::string> dropped) {
+    forget(dropped);
+    const auto buffer = MemoryImages::instance().find(name);
+    if (buffer && buffer->zeroed > 0) {
+        std::lock_guard<std::mutex> lock(warn_mutex_);
+        warnings_.push_back(label + ": image has " + std::to_string(buffer->zeroed) +
+                            " NaN or infinite pixel values; using 0 for them, as Cycles does");
+    }
     auto image = std::make_unique<Image>();
     image->label = label;
     image->in_memory = true;
-    image->path = "coherent-" + std::to_string(serial++) + "." + kMemoryExtension;
-    if (width > 0 && height > 0 && channels > 0 && pixels) {
-        auto buffer = std::make_shared<PixelBuffer>();
-        buffer->width = width;
-        buffer->height = height;
-        buffer->channels = channels;
-        buffer->pixels.assign(pixels, pixels + size_t(width) * size_t(height) * size_t(channels));
-        const size_t bad = zero_non_finite(buffer->pixels);
-        if (bad > 0) {
-            std::lock_guard<std::mutex> lock(warn_mutex_);
-            warnings_.push_back(label + ": image has " + std::to_string(bad) +
-                                " NaN or infinite pixel values; using 0 for them, as Cycles does");
-        }
-        std::lock_guard<std::mutex> lock(registry_mutex());
-        registry()[image->path] = std::move(buffer);
-    }
-    if (width > 0 && height > 0 && channels > 0 && pixels) {
-        check_image(*image);
-    } else {
-        std::lock_guard<std::mutex> lock(warn_mutex_);
-        warnings_.push_back(label + ": image has no pixels; rendered magenta");
-    }
+    image->path = name;
+    check_image(*image);
     images_.push_back(std::move(image));
     return uint32_t(images_.size() - 1);
+}
+
+uint32_t TextureStore::add_buffer(const std::string& label, std::shared_ptr<PixelBuffer> buffer,
+                                  const std::string& key) {
+    MemoryImages::Added added = MemoryImages::instance().add(std::move(buffer), key);
+    return add_memory_image(label, added.name, std::move(added.dropped));
+}
+
+uint32_t TextureStore::add_pixels(const std::string& label, int width, int height, int channels,
+                                  const float* pixels, const std::string& key) {
+    if (width <= 0 || height <= 0 || channels <= 0 || !pixels) return add_bytes(label, 0, 0, 0, nullptr);
+    auto buffer = new_buffer(width, height, channels, true);
+    float* values = reinterpret_cast<float*>(buffer->bytes.data());
+    const size_t n = size_t(width) * size_t(height) * size_t(channels);
+    std::memcpy(values, pixels, n * sizeof(float));
+    buffer->zeroed = zero_non_finite(values, n);
+    return add_buffer(label, std::move(buffer), key);
+}
+
+uint32_t TextureStore::add_bytes(const std::string& label, int width, int height, int channels,
+                                 const uint8_t* pixels, const std::string& key) {
+    if (width <= 0 || height <= 0 || channels <= 0 || !pixels) {
+        {
+            std::lock_guard<std::mutex> lock(warn_mutex_);
+            warnings_.push_back(label + ": image has no pixels; rendered magenta");
+        }
+        auto image = std::make_unique<Image>();
+        image->label = label;
+        images_.push_back(std::move(image));
+        return uint32_t(images_.size() - 1);
+    }
+    auto buffer = new_buffer(width, height, channels, false);
+    std::memcpy(buffer->bytes.data(), pixels, buffer->bytes.size());
+    return add_buffer(label, std::move(buffer), key);
+}
+
+bool TextureStore::add_retained(const std::string& label, const std::string& key, uint32_t& index) {
+    const std::string name = MemoryImages::instance().reuse(key);
+    if (name.empty()) return false;
+    index = add_memory_image(label, name, {});
+    ++reused_;
+    return true;
 }
 
 void TextureStore::lookup(uint32_t index, float u, float v, TextureLookup how, float rgba[4]) const {
@@ -237,6 +227,14 @@ size_t TextureStore::memory_bytes() const {
     long long bytes = 0;
     oiio_->ts->imagecache()->getattribute("stat:cache_memory_used", OIIO::TypeDesc::INT64, &bytes);
     return bytes > 0 ? size_t(bytes) : 0;
+}
+
+size_t TextureStore::buffer_bytes() const {
+    size_t bytes = 0;
+    for (const auto& image : images_)
+        if (image->in_memory)
+            if (auto buffer = MemoryImages::instance().find(image->path)) bytes += buffer->bytes.size();
+    return bytes;
 }
 
 std::vector<std::string> TextureStore::warnings() const {

@@ -1,8 +1,10 @@
 // Image textures of a scene, looked up through OpenImageIO's TextureSystem
 // (its ImageCache tiles, caches and MIP-maps every image under one memory
 // limit). Images come from files, or, when they exist only inside the host
-// application (packed, generated or painted in Blender), as float pixel
-// buffers served to OIIO through an in-memory image format.
+// application (packed, generated or painted in Blender), as pixel buffers
+// (bytes stay bytes, floats floats), served to OIIO through an in-memory image format (memory_images.h). Such an
+// image added under a key is retained after the store goes, so the next
+// render of the same unchanged image reuses it (add_retained).
 //
 // An image that cannot be read (missing file, zero size, unreadable) keeps
 // its index but looks up Cycles' "missing texture" magenta; the reason is in
@@ -26,6 +28,8 @@ struct TextureLookup {
     Extension extension = Extension::Repeat;
 };
 
+struct PixelBuffer;  // memory_images.h
+
 // Cycles' colour of a missing image.
 constexpr float kMissingTexture[4] = {1.0f, 0.0f, 1.0f, 1.0f};
 
@@ -40,7 +44,15 @@ public:
     uint32_t add_file(const std::string& path, const std::string& label);
     // Registers pixels (height rows of width x channels floats, first row at
     // the TOP, as image files store them); copied. Returns its index.
-    uint32_t add_pixels(const std::string& label, int width, int height, int channels, const float* pixels);
+    // A non-empty `key` ("identity\nversion", see memory_images.h) retains the copy.
+    uint32_t add_pixels(const std::string& label, int width, int height, int channels, const float* pixels,
+                        const std::string& key = "");
+    // The same for byte pixels, read as value / 255.
+    uint32_t add_bytes(const std::string& label, int width, int height, int channels, const uint8_t* pixels,
+                        const std::string& key = "");
+    // Adds the in-memory image retained under `key` by an earlier add; false
+    // (nothing added) when none is held.
+    bool add_retained(const std::string& label, const std::string& key, uint32_t& index);
 
     size_t size() const { return images_.size(); }
     // RGBA at texture coordinates (u, v), v = 0 at the bottom row as in
@@ -49,6 +61,10 @@ public:
 
     // Bytes held by the cache now (tiles of every image read so far).
     size_t memory_bytes() const;
+    // Bytes of the in-memory pixel buffers this store uses.
+    size_t buffer_bytes() const;
+    // How many images add_retained found held (handed over by an earlier store).
+    size_t reused() const { return reused_; }
     std::vector<std::string> warnings() const;
 
 private:
@@ -58,7 +74,12 @@ private:
     std::unique_ptr<Oiio> oiio_;
     mutable std::mutex warn_mutex_;
     mutable std::vector<std::string> warnings_;
+    size_t reused_ = 0;
+    size_t cache_bytes_limit_ = 0;
     void check_image(Image& image);
+    uint32_t add_buffer(const std::string& label, std::shared_ptr<PixelBuffer> buffer, const std::string& key);
+    uint32_t add_memory_image(const std::string& label, const std::string& name, std::vector<std::string> dropped);
+    void forget(const std::vector<std::string>& names);
 };
 
 }  // namespace coherent

@@ -1,0 +1,88 @@
+# Run by test_image_handover.py in a subprocess Blender:
+#
+#   blender -b --addons coherent --python image_handover_scene.py -- OUT_DIR
+#
+# The node_scenes.py set-up (an orthographic camera sees an emitting plane,
+# 1 sample per pixel, UVs snapped to pixel centres) with its Emission colour
+# from an Image Texture (linear filtering, sRGB) of a 13x11 byte RGBA image
+# held three ways: packed into the .blend (a PNG), read from a PNG file, and
+# generated then painted through Image.pixels. Alpha mode Channel Packed: the
+# colour is filtered as stored (a reader that associated the PNG's alpha
+# would darken it), and the straight-alpha premultiplication, which Cycles
+# applies to byte texels before filtering, stays out of this test. Each is
+# rendered by Cycles, then twice by COHERENT: OUT_DIR/<case>_<engine>[_again].exr.
+# "HANDOVER_RENDER <case> <n>" precedes each of COHERENT's renders, so its
+# "Coherent: finished ..." line (images reused) can be matched to it.
+
+import os
+import sys
+
+import bpy
+import numpy as np
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import node_scenes  # noqa: E402
+
+WIDTH, HEIGHT = 13, 11
+
+
+def pattern():
+    """RGBA float pixels, rows bottom-up as Image.pixels takes them: byte values exactly."""
+    rng = np.random.default_rng(11)
+    bytes_ = rng.integers(0, 256, size=(HEIGHT, WIDTH, 4))
+    bytes_[..., 3] = np.maximum(bytes_[..., 3], 40)
+    return (bytes_ / 255.0).astype(np.float32)
+
+
+def painted_image(name):
+    image = bpy.data.images.new(name, WIDTH, HEIGHT, alpha=True, float_buffer=False)
+    image.colorspace_settings.name = "sRGB"  # before the pixels: changing it regenerates the image
+    image.pixels.foreach_set(pattern().ravel())
+    return image
+
+
+def make_images(out_dir):
+    """{case: image}: packed PNG, file-backed PNG, generated and painted."""
+    saved = painted_image("saved")
+    path = os.path.join(out_dir, "handover.png")
+    saved.filepath_raw = path
+    saved.file_format = "PNG"
+    saved.save()
+    packed = bpy.data.images.load(path, check_existing=False)
+    packed.name = "packed"
+    packed.pack()
+    file_backed = bpy.data.images.load(path, check_existing=False)
+    file_backed.name = "file"
+    images = {"packed": packed, "file": file_backed, "generated": painted_image("generated")}
+    for image in images.values():
+        image.alpha_mode = "CHANNEL_PACKED"
+    return images
+
+
+def render(scene, out_dir, name):
+    scene.render.filepath = os.path.join(out_dir, f"{name}.exr")
+    bpy.ops.render.render(write_still=True)
+
+
+def main():
+    out_dir = sys.argv[sys.argv.index("--") + 1]
+    scene, plane, material = node_scenes.setup_scene()
+    for case, image in make_images(out_dir).items():
+        nt, emission = node_scenes.fresh_tree(material)
+        tex = node_scenes.node(nt, "ShaderNodeTexImage", interpolation="Linear", extension="REPEAT")
+        tex.image = image
+        mapping = node_scenes.node(nt, "ShaderNodeMapping", vector_type="POINT")
+        mapping.inputs["Scale"].default_value = (1.3, 1.3, 1.0)
+        nt.links.new(node_scenes.pixel_uv(nt), mapping.inputs[0])
+        nt.links.new(mapping.outputs[0], tex.inputs["Vector"])
+        nt.links.new(tex.outputs["Color"], emission.inputs["Color"])
+        scene.render.engine = "CYCLES"
+        render(scene, out_dir, f"{case}_cycles")
+        scene.render.engine = "COHERENT"
+        for n, suffix in enumerate(("", "_again")):
+            print(f"HANDOVER_RENDER {case} {n}", flush=True)
+            render(scene, out_dir, f"{case}_coherent{suffix}")
+
+
+if __name__ == "__main__":
+    main()
