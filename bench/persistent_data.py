@@ -22,7 +22,6 @@ render_post handlers. The medians over repeats are printed.
 
 import os
 import re
-import subprocess
 import sys
 import tempfile
 import time
@@ -93,15 +92,12 @@ SPLIT = re.compile(r"Coherent: finished .*?: export ([\d.]+) s, BVH ([\d.]+) s, 
 REUSE = re.compile(r"^Coherent: persistent data: (.*)$", re.MULTILINE)
 
 
-def run(blender_args, scripts, persistent, args):
+def run(bh, scripts, persistent, args):
     out = os.path.join(tempfile.gettempdir(), f"persist_bench_{persistent}_####")
-    cmd = [*blender_args, "--python", __file__, "-o", out, "-s", "1", "-e", str(FRAMES[-1]), "-a", "--",
-           args.scene, str(args.segments), str(args.size), str(args.samples), str(persistent)]
-    env = dict(os.environ, BLENDER_USER_SCRIPTS=str(scripts), BLENDER_USER_CONFIG=str(Path(scripts).parent / "config"))
-    env.pop("PYTHONPATH", None)
-    proc = subprocess.run(cmd, capture_output=True, text=True, env=env, cwd=tempfile.gettempdir())
+    proc = bh.run_blender(["--python", __file__, "-o", out, "-s", 1, "-e", FRAMES[-1], "-a", "--",
+                           args.scene, args.segments, args.size, args.samples, persistent], scripts, timeout=None)
     if proc.returncode != 0:
-        raise RuntimeError(f"{' '.join(cmd)} failed:\n{proc.stdout[-3000:]}\n{proc.stderr[-3000:]}")
+        raise RuntimeError(proc.describe())
     walls = {int(f): float(s) for f, s in re.findall(r"PERSIST_FRAME (\d+) ([\d.]+)", proc.stdout)}
     splits = [tuple(map(float, m.groups())) for m in SPLIT.finditer(proc.stdout)]
     reuse = REUSE.findall(proc.stdout)
@@ -125,11 +121,10 @@ def main():
     parser.add_argument("--repeats", type=int, default=2)
     args = parser.parse_args()
     scripts = bh.make_user_scripts(tempfile.mkdtemp(prefix="persist_bench_"))
-    blender = [bh.blender_binary(), "-b", "--factory-startup", "--python-exit-code", "1", "--addons", "coherent"]
     runs = {0: [], 1: []}
     for _ in range(args.repeats):
         for persistent in (1, 0):
-            runs[persistent].append(run(blender, scripts, persistent, args))
+            runs[persistent].append(run(bh, scripts, persistent, args))
     triangles = 2 * args.segments * (args.segments - 1)
     extra = " + deforming ico sphere + shared mesh placed twice" if args.scene == "deform" else ""
     print(f"{triangles:,}-triangle static sphere + moving cube{extra}, {args.size}x{args.size}, {args.samples} spp, "

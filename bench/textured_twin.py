@@ -25,7 +25,6 @@ COHERENT's ratio <= Cycles' ratio.
 import os
 import re
 import statistics
-import subprocess
 import sys
 import tempfile
 import time
@@ -193,13 +192,10 @@ def main():
     args = parser.parse_args()
     scripts = bh.make_user_scripts(tempfile.mkdtemp(prefix="twin_bench_"))
     out_dir = tempfile.mkdtemp(prefix="twin_out_")
-    cmd = [bh.blender_binary(), "-b", "--factory-startup", "--python-exit-code", "1", "--addons", "coherent",
-           "--python", __file__, "--", str(args.size), str(args.samples), str(args.threads), str(args.repeats), out_dir]
-    env = dict(os.environ, BLENDER_USER_SCRIPTS=str(scripts), BLENDER_USER_CONFIG=str(Path(scripts).parent / "config"))
-    env.pop("PYTHONPATH", None)
-    proc = subprocess.run(cmd, capture_output=True, text=True, env=env, cwd=tempfile.gettempdir())
+    proc = bh.run_blender(["--python", __file__, "--", args.size, args.samples, args.threads, args.repeats, out_dir],
+                          scripts, timeout=None)
     if proc.returncode != 0:
-        raise RuntimeError(f"{' '.join(cmd)} failed:\n{proc.stdout[-3000:]}\n{proc.stderr[-3000:]}")
+        raise RuntimeError(proc.describe())
     times = {}
     for engine, which, _, seconds in re.findall(r"TWIN_SECONDS (\S+) (\S+) (\d+) ([\d.]+)", proc.stdout):
         times.setdefault((engine, which), []).append(float(seconds))
