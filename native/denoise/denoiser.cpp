@@ -36,6 +36,8 @@ constexpr float kAlbedoBias = 0.01f;
 // Half side of the box over which the noisy per-pixel variances are averaged.
 constexpr int kVarianceRadius = 2;
 constexpr int kBandRows = 8;
+// Half side of the box over which the candidates' estimated errors are summed.
+constexpr int kSelectionRadius = 1;
 
 // The filter's inputs as planes (one float per pixel each), so the inner
 // loops over a row run over contiguous floats and vectorise.
@@ -578,6 +580,48 @@ bool evaluate_band(const Image& img, const FilterParams& fp, int y0, int y1, con
     return true;
 }
 
+// Band [y0, y1) of the weighted means (non-local means) of both halves,
+// into out[half][c]: the regression's cheaper relative for the first pass,
+// whose output only guides the second's weights.
+bool mean_band(const Image& img, const FilterParams& fp, int y0, int y1, const Run& run,
+               std::vector<float> (*out)[3]) {
+    const size_t w = size_t(img.width);
+    std::vector<float> weights[2];
+    if (!band_weights(img, fp, y0, y1, run, weights)) return false;
+    std::vector<float> sums[2][4];  // of one row
+    const int r = fp.window, side = 2 * r + 1;
+    const size_t plane = size_t(y1 - y0) * w;
+    for (int y = y0; y < y1; ++y) {
+        for (auto& half : sums)
+            for (auto& v : half) v.assign(w, 0.0f);
+        for (int dy = -r; dy <= r; ++dy) {
+            if (y + dy < 0 || y + dy >= img.height) continue;
+            for (int dx = -r; dx <= r; ++dx) {
+                const int x0 = std::max(0, -dx), count = std::min(img.width, img.width - dx) - x0;
+                const ptrdiff_t q = ptrdiff_t(y + dy) * img.width + dx + x0;
+                const size_t o = size_t((dy + r) * side + dx + r) * plane + size_t(y - y0) * w + size_t(x0);
+                for (int half = 0; half < 2; ++half) {
+                    const float* __restrict wt = weights[half].data() + o;
+                    for (int c = 0; c < 3; ++c) {
+                        const float* __restrict v = img.plane((half ? kB : kA) + c) + q;
+                        float* __restrict acc = sums[half][c].data() + x0;
+                        for (int x = 0; x < count; ++x) acc[x] += wt[x] * v[x];
+                    }
+                    float* __restrict acc = sums[half][3].data() + x0;
+                    for (int x = 0; x < count; ++x) acc[x] += wt[x];
+                }
+            }
+        }
+        for (int half = 0; half < 2; ++half)
+            for (int c = 0; c < 3; ++c)
+                for (size_t x = 0; x < w; ++x) {
+                    const float wsum = sums[half][3][x];
+                    out[half][c][size_t(y) * w + x] = wsum > 0.0f ? sums[half][c][x] / wsum : 0.0f;
+                }
+    }
+    return true;
+}
+
 // Runs band_work(y0, y1) over all bands in parallel; false once cancelled.
 template <class Work>
 bool for_each_band(const Image& img, Run& run, Work&& band_work) {
@@ -638,6 +682,45 @@ void set_guides(Image& img, const std::vector<float> (*halves)[3]) {
     for (int c = 0; c < 3; ++c) img.planes[kGuideA + c] = halves[0][c], img.planes[kGuideB + c] = halves[1][c];
 }
 
+using Halves = std::vector<float>[2][3];
+
+// Per-pixel selection between candidate filters (Bitterli et al.'s
+// selection): each candidate's squared error is estimated from the other
+// half, ((filtered a - raw b)^2 - Var b + (filtered b - raw a)^2 - Var a)
+// in remodulated units, summed over a box (one pixel's is a single noisy
+// draw); each pixel takes the candidate with the smallest sum.
+void select_candidates(const Image& img, const std::vector<const Halves*>& candidates, Halves& out) {
+    const int w = img.width, h = img.height;
+    const size_t size = size_t(w) * size_t(h);
+    std::vector<std::vector<float>> error(candidates.size(), std::vector<float>(size, 0.0f));
+    for (size_t k = 0; k < candidates.size(); ++k) {
+        const Halves& f = *candidates[k];
+        for (size_t i = 0; i < size; ++i)
+            for (int c = 0; c < 3; ++c) {
+                const float m = img.modulation[3 * i + size_t(c)];
+                const float da = f[0][c][i] - img.planes[kB + c][i], db = f[1][c][i] - img.planes[kA + c][i];
+                error[k][i] += m * m * (da * da - img.planes[kVarB + c][i] + db * db - img.planes[kVarA + c][i]);
+            }
+    }
+    allocate_halves(size, out);
+    tbb::parallel_for(0, h, [&](int y) {
+        for (int x = 0; x < w; ++x) {
+            size_t best = 0;
+            double best_error = 0.0;
+            for (size_t k = 0; k < candidates.size(); ++k) {
+                double e = 0.0;
+                for (int yy = std::max(0, y - kSelectionRadius); yy <= std::min(h - 1, y + kSelectionRadius); ++yy)
+                    for (int xx = std::max(0, x - kSelectionRadius); xx <= std::min(w - 1, x + kSelectionRadius); ++xx)
+                        e += error[k][size_t(yy) * size_t(w) + size_t(xx)];
+                if (k == 0 || e < best_error) best = k, best_error = e;
+            }
+            const size_t i = size_t(y) * size_t(w) + size_t(x);
+            for (int half = 0; half < 2; ++half)
+                for (int c = 0; c < 3; ++c) out[half][c][i] = (*candidates[best])[half][c][i];
+        }
+    });
+}
+
 // The filtered halves (demodulated planes), remodulated and combined.
 DenoiseResult remodulate_and_combine(const Image& img, const std::vector<float> (*halves)[3]) {
     const size_t size = size_t(img.width) * size_t(img.height);
@@ -667,10 +750,10 @@ DenoiseResult denoise(const Film& film, const DenoiseOptions& options, const Den
         if (!read_pixel(sums, i, img)) return {};  // fewer than 2 passes: no halves to cross-filter
 
     Run run{options, progress};
-    run.steps = 4 * ((img.height + kBandRows - 1) / kBandRows);  // 2 passes of 2 phases
+    run.steps = 5 * ((img.height + kBandRows - 1) / kBandRows);  // a mean, 2 regressions of 2 phases
     const FilterParams params{kColourK * std::max(0.0f, options.strength), std::max(0, options.window_radius),
                               std::max(0, options.patch_radius)};
-    std::vector<float> first[2][3], second[2][3];
+    Halves first, second, third, selected;
     bool complete = false;
     tbb::task_arena arena(options.threads > 0 ? options.threads : tbb::task_arena::automatic);
     arena.execute([&] {
@@ -680,15 +763,25 @@ DenoiseResult denoise(const Film& film, const DenoiseOptions& options, const Den
             img.planes[kGuideA + c] = img.planes[kA + c], img.planes[kGuideB + c] = img.planes[kB + c];
             img.planes[kGuideVarA + c] = img.planes[kVarA + c], img.planes[kGuideVarB + c] = img.planes[kVarB + c];
         }
-        if (!regression_filter(img, params, run, first)) return;
-        // Second pass: the same filter of the raw halves, with weights from
-        // the first pass's output, whose patches are far less noisy.
+        // First pass: non-local means. Its output only guides the second
+        // pass's weights; there a regression first pass measured no better
+        // (docs/results/denoise.md) at 3x the cost.
+        allocate_halves(size, first);
+        if (!for_each_band(img, run, [&](int y0, int y1) { return mean_band(img, params, y0, y1, run, first); }))
+            return;
+        // Second pass: regressions of the raw halves, with weights from
+        // the first pass's output, whose patches are far less noisy; two
+        // candidates (patches 7 x 7 and 3 x 3: the smaller follows finer
+        // detail, the larger averages more), selected per pixel.
         set_guides(img, first);
         estimate_variances(img, kGuideA, kGuideB, kGuideVarA, kGuideVarB, false);
-        complete = regression_filter(img, params, run, second);
+        FilterParams small_patch = params;
+        small_patch.patch = std::min(params.patch, 1);
+        complete = regression_filter(img, params, run, second) && regression_filter(img, small_patch, run, third);
+        if (complete) select_candidates(img, {&second, &third}, selected);
     });
     if (!complete || run.stopped() || (progress && !progress(1.0))) return {};
-    return remodulate_and_combine(img, second);
+    return remodulate_and_combine(img, selected);
 }
 
 }  // namespace coherent

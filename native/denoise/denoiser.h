@@ -38,7 +38,7 @@ namespace coherent {
 struct DenoiseOptions {
     // Scales the colour tolerance k: 0 keeps only pixels equal within noise.
     float strength = 1.0f;
-    int window_radius = 5;  // search window (2r+1)^2
+    int window_radius = 4;  // regression window (2r+1)^2
     int patch_radius = 3;   // patch (2f+1)^2 of the colour distance
     int threads = 0;        // 0 = all cores
     // Polled while filtering (null: none): once set, denoise() stops within
