@@ -1,11 +1,12 @@
-// Dual-buffer NLM with feature weights (denoiser.h).
+// NLM-guided first-order regression (denoiser.h).
 //
-// The filter loops over window offsets d, and for each offset over a band
-// of rows: the per-pixel colour distance of (p, p + d) in both guides, box
-// filtered over the patch (running sums: O(1) per pixel whatever the
-// patch), then the weights and their sums. Bands run in parallel (TBB);
-// each writes only its own rows, so the result does not depend on the
-// thread count.
+// Every filter runs over bands of rows in parallel (TBB). Per band it first
+// stores the weights of every (pixel, window offset) pair: for each offset,
+// the per-pixel colour distances of (p, p + d) in both guides, box filtered
+// over the patch (running sums: O(1) per pixel whatever the patch). Then it
+// runs row by row over all offsets, so that one row's normal equations stay
+// in cache. Each band writes only its own rows, so the result does not
+// depend on the thread count.
 #include "denoiser.h"
 
 #include <tbb/blocked_range.h>
