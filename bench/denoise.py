@@ -6,15 +6,18 @@ blend_scenes/*.blend through Blender) and on ../shared/scenes/*.glb when
 present; crops as a PNG; and the denoiser's time as a fraction of a 64-spp
 render at 512 x 512.
 
-    /usr/bin/python3 bench/denoise.py [--res 96] [--ref-spp 384] [--out docs/results]
+    /usr/bin/python3 bench/denoise.py [--res 64] [--ref-spp 2048] [--out docs/results]
+        [--cache /tmp/denoise_bench_cache] [--only LABEL] [--skip-blender] [--skip-timing]
 
 The reference is two renders of --ref-spp samples with other seeds; a quarter
 of their squared difference estimates the reference's variance and is
 subtracted from every mean squared error (so a noisy reference does not
-flatter or penalise anyone). Because heavy-tailed (firefly) noise makes the
-RMSE unstable, the median absolute error (over pixels where the reference
-is not black) is reported next to it. Writes
-denoise.csv, denoise_crops.png and prints the markdown tables.
+flatter or penalise anyone). The references and the noisy 256-spp renders
+do not depend on the denoiser and are kept in --cache for later runs.
+Because heavy-tailed (firefly) noise makes the RMSE unstable, the median
+absolute error (over pixels where the reference is not black) is reported
+next to it, and the RMSE over an edge mask of the reference separately.
+Writes denoise.csv, denoise_crops.png and prints the markdown tables.
 """
 import argparse
 import csv
