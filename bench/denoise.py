@@ -6,15 +6,18 @@ blend_scenes/*.blend through Blender) and on ../shared/scenes/*.glb when
 present; crops as a PNG; and the denoiser's time as a fraction of a 64-spp
 render at 512 x 512.
 
-    /usr/bin/python3 bench/denoise.py [--res 96] [--ref-spp 384] [--out docs/results]
+    /usr/bin/python3 bench/denoise.py [--res 64] [--ref-spp 2048] [--out docs/results]
+        [--cache /tmp/denoise_bench_cache] [--only LABEL] [--skip-blender] [--skip-timing]
 
 The reference is two renders of --ref-spp samples with other seeds; a quarter
 of their squared difference estimates the reference's variance and is
 subtracted from every mean squared error (so a noisy reference does not
-flatter or penalise anyone). Because heavy-tailed (firefly) noise makes the
-RMSE unstable, the median absolute error (over pixels where the reference
-is not black) is reported next to it. Writes
-denoise.csv, denoise_crops.png and prints the markdown tables.
+flatter or penalise anyone). The references and the noisy 256-spp renders
+do not depend on the denoiser and are kept in --cache for later runs.
+Because heavy-tailed (firefly) noise makes the RMSE unstable, the median
+absolute error (over pixels where the reference is not black) is reported
+next to it, and the RMSE over an edge mask of the reference separately.
+Writes denoise.csv, denoise_crops.png and prints the markdown tables.
 """
 import argparse
 import csv
@@ -51,12 +54,17 @@ def cli_render(scene, out, res, spp, seed, denoise=False, extra=()):
     return json.loads(subprocess.run(args, capture_output=True, text=True, check=True).stdout)
 
 
-def glb_images(scene, tmp, res, ref_spp):
+def glb_images(scene, tmp, res, ref_spp, cache):
+    """The references and the noisy 256-spp render do not depend on the
+    denoiser: they are kept in `cache` and reused by later runs."""
     img = {}
-    for key, spp, seed in (("refa", ref_spp, 101), ("refb", ref_spp, 202)):
-        cli_render(scene, tmp / f"{key}.exr", res, spp, seed)
-        img[key] = read_rgb(tmp / f"{key}.exr")
-    for spp in (16, 64, 256):
+    for key, spp, seed in (("refa", ref_spp, 101), ("refb", ref_spp, 202), ("n256", 256, 7)):
+        path = cache / f"{key}_{res}_{spp}.exr"
+        if not path.exists():
+            cli_render(scene, path, res, spp, seed)
+        img[key] = read_rgb(path)
+    img["noisy256"] = img.pop("n256")
+    for spp in (16, 64):
         cli_render(scene, tmp / f"n{spp}.exr", res, spp, 7)
         img[f"noisy{spp}"] = read_rgb(tmp / f"n{spp}.exr")
     for spp in (16, 64):
@@ -65,11 +73,15 @@ def glb_images(scene, tmp, res, ref_spp):
     return img
 
 
-def blend_images(scene, tmp, res, ref_spp):
+def blend_images(scene, tmp, res, ref_spp, cache):
     """Renders through Blender (tests/blender/denoise_renders.py) at the
-    resolution percentage that gives about `res` pixels across."""
+    resolution percentage that gives about `res` pixels across; the
+    references and noisy 256 spp are cached as in glb_images."""
     percent = max(1, round(100 * res / 512))
-    specs = [f"refa:{ref_spp}:101:0", f"refb:{ref_spp}:202:0", "n256:256:7:0", "d16:16:7:1", "d64:64:7:1"]
+    cached = {k: cache / f"{k}_{res}_{spp}.exr" for k, spp in (("refa", ref_spp), ("refb", ref_spp), ("n256", 256))}
+    specs = [f"{k}:{spp}:{seed}:0" for (k, spp, seed) in (("refa", ref_spp, 101), ("refb", ref_spp, 202),
+                                                          ("n256", 256, 7)) if not cached[k].exists()]
+    specs += ["d16:16:7:1", "d64:64:7:1"]
     users = tmp / "user_scripts"
     (users / "addons").mkdir(parents=True, exist_ok=True)
     link = users / "addons" / "coherent"
@@ -79,12 +91,35 @@ def blend_images(scene, tmp, res, ref_spp):
     subprocess.run(["blender", "-b", "--factory-startup", "--addons", "coherent", str(scene), "--python",
                     str(REPO / "tests" / "blender" / "denoise_renders.py"), "--", str(tmp), str(percent), *specs],
                    check=True, capture_output=True, env=env)
-    img = {k: read_rgb(tmp / f"{k}.exr") for k in ("refa", "refb")}
-    img["noisy256"] = read_rgb(tmp / "n256.exr")
+    for k, path in cached.items():
+        if not path.exists():
+            (tmp / f"{k}.exr").replace(path)
+    img = {k: read_rgb(cached[k]) for k in ("refa", "refb")}
+    img["noisy256"] = read_rgb(cached["n256"])
     for spp in (16, 64):
         img[f"noisy{spp}"] = read_rgb(tmp / f"d{spp}.exr", "Noisy Image")
         img[f"denoised{spp}"] = read_rgb(tmp / f"d{spp}.exr")
     return img
+
+
+def edge_mask(ref):
+    """Pixels on a sharp edge of the reference (a texture, a shadow, an
+    object's outline): the luminance differs from a 4-neighbour's by more
+    than half of the larger of the two (and more than 2 % of the image
+    mean, so that noise in black regions is not an edge)."""
+    lum = ref.mean(axis=2)
+    floor = 0.02 * lum.mean()
+    mask = np.zeros(lum.shape, bool)
+    for axis in (0, 1):
+        a, b = (lum[1:], lum[:-1]) if axis == 0 else (lum[:, 1:], lum[:, :-1])
+        edge = np.abs(a - b) > np.maximum(0.5 * np.maximum(a, b), floor)
+        if axis == 0:
+            mask[1:] |= edge
+            mask[:-1] |= edge
+        else:
+            mask[:, 1:] |= edge
+            mask[:, :-1] |= edge
+    return mask
 
 
 def errors(img):
@@ -92,10 +127,12 @@ def errors(img):
     ref_var = (img["refa"] - img["refb"]) ** 2 / 4
     mean = ref.mean()
     lit = ref.mean(axis=2) > 0  # the median over black background would be 0
-    row = {"reference_self_rmse": float(np.sqrt(ref_var.mean()) / mean)}
+    edges = edge_mask(ref)
+    row = {"reference_self_rmse": float(np.sqrt(ref_var.mean()) / mean), "edge_fraction": float(edges.mean())}
     for n in NAMES:
-        mse = max(float(((img[n] - ref) ** 2 - ref_var).mean()), 0.0)
-        row[f"{n}_rmse"] = float(np.sqrt(mse) / mean)
+        se = (img[n] - ref) ** 2 - ref_var
+        row[f"{n}_rmse"] = float(np.sqrt(max(float(se.mean()), 0.0)) / mean)
+        row[f"{n}_edge_rmse"] = float(np.sqrt(max(float(se[edges].mean()), 0.0)) / mean) if edges.any() else 0.0
         row[f"{n}_median"] = float(np.median(np.abs(img[n] - ref)[lit]) / mean)
     return row, ref
 
@@ -132,10 +169,13 @@ def crops(all_images, path):
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--res", type=int, default=96)
-    ap.add_argument("--ref-spp", type=int, default=384)
+    ap.add_argument("--res", type=int, default=64)
+    ap.add_argument("--ref-spp", type=int, default=2048)
     ap.add_argument("--out", default=str(REPO / "docs" / "results"))
     ap.add_argument("--skip-blender", action="store_true")
+    ap.add_argument("--skip-timing", action="store_true")
+    ap.add_argument("--only", default="", help="only scenes whose label contains this")
+    ap.add_argument("--cache", default="/tmp/denoise_bench_cache", help="references and noisy 256 spp, reused")
     args = ap.parse_args()
     out = Path(args.out)
     work = Path(tempfile.mkdtemp(prefix="denoise_bench_"))
@@ -149,9 +189,13 @@ def main():
         print(f"note: {SHARED} absent; public scenes skipped")
     rows, images = [], {}
     for label, path, render in scenes:
-        tmp = work / label.split()[0 if not label.startswith("shared") else 1].replace(".", "_")
+        if args.only not in label:
+            continue
+        key = label.split(" (")[0].replace(" ", "_").replace(".", "_")
+        tmp, cache = work / key, Path(args.cache) / key
         tmp.mkdir(parents=True, exist_ok=True)
-        img = render(path, tmp, args.res, args.ref_spp)
+        cache.mkdir(parents=True, exist_ok=True)
+        img = render(path, tmp, args.res, args.ref_spp, cache)
         row, ref = errors(img)
         rows.append({"scene": label, **row})
         images[label.split(" (")[0]] = (img, ref)
@@ -161,11 +205,20 @@ def main():
         writer.writeheader()
         writer.writerows(rows)
     crops(images, out / "denoise_crops.png")
-    print("\n| scene | ref self | noisy 16 | noisy 64 | noisy 256 | denoised 16 | denoised 64 |")
-    print("|---|---|---|---|---|---|---|")
+    print("\n| scene | ref self | noisy 16 | noisy 64 | noisy 256 | denoised 16 | denoised 64 | target |")
+    print("|---|---|---|---|---|---|---|---|")
     for r in rows:
         cells = " | ".join(f"{r[f'{n}_rmse']:.4f} ({r[f'{n}_median']:.4f})" for n in NAMES)
-        print(f"| {r['scene']} | {r['reference_self_rmse']:.4f} | {cells} |")
+        met = "met" if r["denoised16_rmse"] < r["noisy256_rmse"] else "not met"
+        print(f"| {r['scene']} | {r['reference_self_rmse']:.4f} | {cells} | {met} |")
+    print("\nEdge pixels only (relative RMSE over the edge mask, normalised by the whole image's mean):")
+    print("\n| scene | edge pixels | noisy 16 | noisy 64 | noisy 256 | denoised 16 | denoised 64 |")
+    print("|---|---|---|---|---|---|---|")
+    for r in rows:
+        cells = " | ".join(f"{r[f'{n}_edge_rmse']:.4f}" for n in NAMES)
+        print(f"| {r['scene']} | {100 * r['edge_fraction']:.1f} % | {cells} |")
+    if args.skip_timing:
+        return
     for label, path in [("fixture cornell_box.glb", work / "cornell_box.glb")] + (
             [("shared crytek_sponza.glb", SHARED / "crytek_sponza.glb")] if (SHARED / "crytek_sponza.glb").exists()
             else []):

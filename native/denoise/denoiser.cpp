@@ -1,11 +1,12 @@
-// Dual-buffer NLM with feature weights (denoiser.h).
+// NLM-guided first-order regression (denoiser.h).
 //
-// The filter loops over window offsets d, and for each offset over a band
-// of rows: the per-pixel colour distance of (p, p + d) in both guides, box
-// filtered over the patch (running sums: O(1) per pixel whatever the
-// patch), then the weights and their sums. Bands run in parallel (TBB);
-// each writes only its own rows, so the result does not depend on the
-// thread count.
+// Every filter runs over bands of rows in parallel (TBB). Per band it first
+// stores the weights of every (pixel, window offset) pair: for each offset,
+// the per-pixel colour distances of (p, p + d) in both guides, box filtered
+// over the patch (running sums: O(1) per pixel whatever the patch). Then it
+// runs row by row over all offsets, so that one row's normal equations stay
+// in cache. Each band writes only its own rows, so the result does not
+// depend on the thread count.
 #include "denoiser.h"
 
 #include <tbb/blocked_range.h>
@@ -24,10 +25,10 @@ namespace coherent {
 
 namespace {
 
-// Rousselle et al.'s colour tolerance and the feature tolerances (albedo in
-// reflectance units, normal in unit-vector distance: 0.25 ~ 14 degrees).
-constexpr float kColourK = 0.45f;
-constexpr float kAlbedoSigma = 0.1f;
+// The colour tolerance of the weights (NFOR's larger candidate, k = 1: a
+// regression tolerates wider windows than a weighted mean) and the normals'
+// tolerance (unit-vector distance: 0.25 ~ 14 degrees).
+constexpr float kColourK = 1.0f;
 constexpr float kNormalSigma = 0.25f;
 constexpr float kEpsilon = 1e-10f;
 // Added to the albedo before dividing by it: black surfaces (albedo 0) stay
@@ -35,7 +36,9 @@ constexpr float kEpsilon = 1e-10f;
 constexpr float kAlbedoBias = 0.01f;
 // Half side of the box over which the noisy per-pixel variances are averaged.
 constexpr int kVarianceRadius = 2;
-constexpr int kBandRows = 32;
+constexpr int kBandRows = 8;
+// Half side of the box over which the candidates' estimated errors are summed.
+constexpr int kSelectionRadius = 1;
 
 // The filter's inputs as planes (one float per pixel each), so the inner
 // loops over a row run over contiguous floats and vectorise.
@@ -46,10 +49,13 @@ enum Plane : int {
     kVarB = kVarA + 3,
     kAlbedo = kVarB + 3,
     kNormal = kAlbedo + 3,
-    kAlbedoVar,          // variance of the feature means, summed over channels
-    kNormalVar,
+    kNormalVar = kNormal + 3,  // variance of the normal's mean, summed over channels
     kValid,              // 1 where the pixel has samples, else 0
-    kPlaneCount
+    kGuideA,             // what the weights compare: the halves, then the first pass's output
+    kGuideB = kGuideA + 3,
+    kGuideVarA = kGuideB + 3,
+    kGuideVarB = kGuideVarA + 3,
+    kPlaneCount = kGuideVarB + 3
 };
 
 struct Image {
@@ -111,7 +117,6 @@ bool read_pixel(const Film::Sums& s, size_t i, Image& img) {
         img.planes[kB + c][i] = odd / (std::max(odd_albedo, 0.0f) + kAlbedoBias);
     }
     if (s.albedo) {
-        img.planes[kAlbedoVar][i] = feature_variance(s.albedo + 3 * i, s.albedo_odd + 3 * i, n, n_odd);
         img.planes[kNormalVar][i] = feature_variance(s.normal + 3 * i, s.normal_odd + 3 * i, n, n_odd);
     }
     return true;
@@ -163,16 +168,18 @@ void suppress_outliers(Image& img) {
     });
 }
 
-// Each half's variance: Var[even mean] = E[(even - odd)^2] n_o / n, with
-// (even - odd)^2 averaged over a small box (one pixel's is a single
-// chi-square draw, far too noisy to normalise distances by).
-void estimate_variances(Image& img) {
+// Each half's variance, from the squared difference of halves a and b
+// averaged over a small box (one pixel's is a single chi-square draw, far
+// too noisy to normalise distances by). For the film's halves, Var[even
+// mean] = E[(even - odd)^2] n_odd / n (by_counts); for two filtered halves
+// of equal variance, half the squared difference.
+void estimate_variances(Image& img, int a, int b, int var_a, int var_b, bool by_counts) {
     const int w = img.width, h = img.height;
     const size_t size = size_t(w) * size_t(h);
     std::vector<float> diff2(3 * size);
     for (int c = 0; c < 3; ++c)
         for (size_t i = 0; i < size; ++i) {
-            const float d = img.planes[kA + c][i] - img.planes[kB + c][i];
+            const float d = img.planes[a + c][i] - img.planes[b + c][i];
             diff2[size_t(c) * size + i] = d * d;  // 0 where invalid: both halves are 0 there
         }
     tbb::parallel_for(0, h, [&](int y) {
@@ -187,20 +194,14 @@ void estimate_variances(Image& img) {
                     count += img.planes[kValid][j];
                 }
             const float n = img.n_even[i] + img.n_odd[i];
+            const float scale_a = by_counts ? img.n_odd[i] / n : 0.5f, scale_b = by_counts ? img.n_even[i] / n : 0.5f;
             for (int c = 0; c < 3; ++c) {
-                const float mean = sum[c] / count;
-                img.planes[kVarA + c][i] = mean * img.n_odd[i] / n;
-                img.planes[kVarB + c][i] = mean * img.n_even[i] / n;
+                img.planes[var_a + c][i] = sum[c] / count * scale_a;
+                img.planes[var_b + c][i] = sum[c] / count * scale_b;
             }
         }
     });
 }
-
-// Per band: weighted sums of each half and of the weights (planes of the
-// band's pixels: 3 + 3 + 1 + 1).
-struct BandSums {
-    std::vector<float> sum_a[3], sum_b[3], weight_a, weight_b;
-};
 
 // Scratch of one band and offset: per-pixel colour distances of rows
 // [y0 - f, y1 + f) in both guides and how many pairs were valid, their
@@ -238,8 +239,8 @@ void patch_distances(const Image& img, int y0, int y1, int dx, int dy, int f, fl
         const int qy = y + dy;
         if (qy < 0 || qy >= h) continue;
         const size_t row = size_t(y) * size_t(w), row_q = size_t(qy) * size_t(w), base = size_t(y - r0) * size_t(w);
-        row_colour_distances(img, row, row_q, x0, x1, dx, kA, kVarA, k2, s.raw_a.data() + base);
-        row_colour_distances(img, row, row_q, x0, x1, dx, kB, kVarB, k2, s.raw_b.data() + base);
+        row_colour_distances(img, row, row_q, x0, x1, dx, kGuideA, kGuideVarA, k2, s.raw_a.data() + base);
+        row_colour_distances(img, row, row_q, x0, x1, dx, kGuideB, kGuideVarB, k2, s.raw_b.data() + base);
         for (int x = x0; x < x1; ++x) {
             const float both = valid[row + size_t(x)] * valid[row_q + size_t(x + dx)];
             s.raw_a[base + size_t(x)] *= both, s.raw_b[base + size_t(x)] *= both, s.raw_n[base + size_t(x)] = both;
@@ -280,98 +281,376 @@ void patch_distances(const Image& img, int y0, int y1, int dx, int dy, int f, fl
 
 // The weights of pairs (p, p + (dx, dy)) over one row of `count` pixels,
 // pointers advanced to the first pair: wa filters half a (guided by b's
-// distance), wb half b. Plain restrict pointers, so that the loop vectorises.
+// distance), wb half b. Besides the colour patches, the normals: their
+// squared difference beyond their own noise, over a tolerance, keeps the
+// windows on one side of a geometric edge. (No albedo term: the colour is
+// demodulated and the regression fits against the albedo.) Plain restrict
+// pointers, so that the loops vectorise.
 void row_weights(const Image& img, ptrdiff_t p, ptrdiff_t q, const float* __restrict dist_a,
                  const float* __restrict dist_b, int count, float* __restrict wa, float* __restrict wb) {
-    constexpr float kAlbedo2 = kAlbedoSigma * kAlbedoSigma, kNormal2 = kNormalSigma * kNormalSigma;
-    float* __restrict feature = wb;  // wb holds the feature distance until the last loop
-    for (int x = 0; x < count; ++x) feature[x] = 0.0f;
-    for (int base : {int(kAlbedo), int(kNormal)}) {
-        float* __restrict d2 = wa;  // squared feature difference, summed over channels
-        for (int x = 0; x < count; ++x) d2[x] = 0.0f;
-        for (int c = 0; c < 3; ++c) {
-            const float* __restrict fp = img.plane(base + c) + p;
-            const float* __restrict fq = img.plane(base + c) + q;
-            for (int x = 0; x < count; ++x) d2[x] += (fp[x] - fq[x]) * (fp[x] - fq[x]);
-        }
-        // Beyond the features' own noise, in units of the tolerances.
-        const int var_plane = base == kAlbedo ? kAlbedoVar : kNormalVar;
-        const float tolerance = base == kAlbedo ? kAlbedo2 : kNormal2;
-        const float* __restrict vp = img.plane(var_plane) + p;
-        const float* __restrict vq = img.plane(var_plane) + q;
-        for (int x = 0; x < count; ++x) {
-            const float v = vp[x] + vq[x];
-            feature[x] += std::max(0.0f, d2[x] - v) / (tolerance + v);
-        }
+    constexpr float kNormal2 = kNormalSigma * kNormalSigma;
+    for (int x = 0; x < count; ++x) wa[x] = 0.0f;  // the normals' squared difference until the last loop
+    for (int c = 0; c < 3; ++c) {
+        const float* __restrict fp = img.plane(kNormal + c) + p;
+        const float* __restrict fq = img.plane(kNormal + c) + q;
+        for (int x = 0; x < count; ++x) wa[x] += (fp[x] - fq[x]) * (fp[x] - fq[x]);
     }
+    const float* __restrict vp = img.plane(kNormalVar) + p;
+    const float* __restrict vq = img.plane(kNormalVar) + q;
     const float* __restrict valid_p = img.plane(kValid) + p;
     const float* __restrict valid_q = img.plane(kValid) + q;
     for (int x = 0; x < count; ++x) {
-        const float both = valid_p[x] * valid_q[x], f = feature[x];
-        wa[x] = both * exp_negative(-(std::max(0.0f, dist_b[x]) + f));
+        const float v = vp[x] + vq[x], f = std::max(0.0f, wa[x] - v) / (kNormal2 + v);
+        const float both = valid_p[x] * valid_q[x];
         wb[x] = both * exp_negative(-(std::max(0.0f, dist_a[x]) + f));
+        wa[x] = both * exp_negative(-(std::max(0.0f, dist_b[x]) + f));
     }
 }
 
-// Adds offset (dx, dy)'s contributions to the band's sums: half a is
-// filtered with weights from guide b and vice versa.
-void accumulate_offset(const Image& img, int y0, int y1, int dx, int dy, const PatchDistances& s, BandSums& sums,
-                       std::vector<float>& wa, std::vector<float>& wb) {
-    const int w = img.width, h = img.height;
-    const int x0 = std::max(0, -dx), x1 = std::min(w, w - dx), count = x1 - x0;
-    wa.resize(size_t(w)), wb.resize(size_t(w));
-    for (int y = y0; y < y1; ++y) {
-        const int qy = y + dy;
-        if (qy < 0 || qy >= h) continue;
-        // Row starts advanced to x0: the loops run over [0, count).
-        const ptrdiff_t p = ptrdiff_t(y) * w + x0, q = ptrdiff_t(qy) * w + dx + x0, o = ptrdiff_t(y - y0) * w + x0;
-        row_weights(img, p, q, s.dist_a.data() + o, s.dist_b.data() + o, count, wa.data(), wb.data());
-        const float* __restrict wa_row = wa.data();
-        const float* __restrict wb_row = wb.data();
-        for (int c = 0; c < 3; ++c) {
-            const float* __restrict a = img.plane(kA + c) + q;
-            const float* __restrict b = img.plane(kB + c) + q;
-            float* __restrict sa = sums.sum_a[c].data() + o;
-            float* __restrict sb = sums.sum_b[c].data() + o;
-            for (int x = 0; x < count; ++x) sa[x] += wa_row[x] * a[x], sb[x] += wb_row[x] * b[x];
+// --- first-order regression (NFOR) ---------------------------------------------
+//
+// For every pixel p (a window's centre), a weighted least-squares fit of the
+// demodulated colour of its window's pixels q against their regressors
+// relative to p's (Bitterli et al. 2016): 1, albedo_q - albedo_p,
+// normal_q - normal_p and the screen offset over the window radius. A
+// smooth gradient of light across the window is then fitted, not averaged
+// into a blur, and the weights can be wider than a weighted mean's.
+// Collaborative: every pixel's output is the weighted mean of the fits of
+// all windows that contain it, each evaluated at that pixel. The weights
+// are symmetric (w(p, q) = w(q, p): the patch and feature distances are),
+// so the windows containing p are those of p's own offsets, and both steps
+// run the same loop over offsets: first the normal equations of each
+// centre, then (after every fit is solved) the evaluations.
+constexpr int kRegressors = 9;  // 1, albedo (3), normal (3), dx / r, dy / r
+constexpr int kMoments = kRegressors * (kRegressors + 1) / 2;
+// Ridge on the slopes, relative to the sum of weights: a regressor that
+// hardly varies over a window (a flat wall's normal) gets no slope from noise.
+constexpr double kRidge = 0.1;
+
+// Per band: the normal equations of each half (planes of the band's pixels):
+// sum w z_i z_j (i >= j) and sum w z_i y_c.
+struct NormalEquations {
+    std::vector<float> moments[2][kMoments], targets[2][3 * kRegressors];
+};
+
+// Per band and offset: the regressors of one row's pairs and the weights.
+struct RowScratch {
+    std::vector<float> z[kRegressors];
+    const float* weight[2] = {nullptr, nullptr};  // into the band's stored weights
+    void resize(int w) {
+        for (auto& v : z) v.resize(size_t(w));
+    }
+};
+
+// z of the pairs (p, q) of one row, pointers advanced to the first pair.
+void row_regressors(const Image& img, ptrdiff_t p, ptrdiff_t q, int count, float sx, float sy, RowScratch& s) {
+    for (int x = 0; x < count; ++x) s.z[0][size_t(x)] = 1.0f;
+    for (int i = 0; i < 6; ++i) {
+        const float* __restrict fp = img.plane(kAlbedo + i) + p;  // kNormal follows kAlbedo
+        const float* __restrict fq = img.plane(kAlbedo + i) + q;
+        float* __restrict z = s.z[1 + i].data();
+        for (int x = 0; x < count; ++x) z[x] = fq[x] - fp[x];
+    }
+    std::fill_n(s.z[7].data(), count, sx);
+    std::fill_n(s.z[8].data(), count, sy);
+}
+
+void accumulate_row(const float* const* colour, ptrdiff_t q, ptrdiff_t o, int count, const RowScratch& s, int half,
+                    NormalEquations& eq) {
+    const float* __restrict w = s.weight[half];
+    int m = 0;
+    for (int i = 0; i < kRegressors; ++i)
+        for (int j = 0; j <= i; ++j, ++m) {
+            const float* __restrict zi = s.z[i].data();
+            const float* __restrict zj = s.z[j].data();
+            float* __restrict acc = eq.moments[half][m].data() + o;
+            for (int x = 0; x < count; ++x) acc[x] += w[x] * zi[x] * zj[x];
         }
-        float* __restrict sum_wa = sums.weight_a.data() + o;
-        float* __restrict sum_wb = sums.weight_b.data() + o;
-        for (int x = 0; x < count; ++x) sum_wa[x] += wa_row[x], sum_wb[x] += wb_row[x];
+    for (int c = 0; c < 3; ++c) {
+        const float* __restrict y = colour[c] + q;
+        for (int i = 0; i < kRegressors; ++i) {
+            const float* __restrict zi = s.z[i].data();
+            float* __restrict acc = eq.targets[half][c * kRegressors + i].data() + o;
+            for (int x = 0; x < count; ++x) acc[x] += w[x] * zi[x] * y[x];
+        }
     }
 }
 
-// Filtered halves of the band's pixels, remodulated: 3 floats a pixel each.
-// Returns early (output incomplete) once `cancelled` is set: checked per
-// window row, so cancelling is prompt at any image width.
-void filter_band(const Image& img, const DenoiseOptions& o, int y0, int y1, const std::atomic<bool>& cancelled,
-                 float* out_a, float* out_b) {
-    const int w = img.width, r = std::max(0, o.window_radius), f = std::max(0, o.patch_radius);
-    const float k = kColourK * std::max(0.0f, o.strength);
-    const size_t n = size_t(y1 - y0) * size_t(w);
-    BandSums sums;
-    for (int c = 0; c < 3; ++c) sums.sum_a[c].assign(n, 0.0f), sums.sum_b[c].assign(n, 0.0f);
-    sums.weight_a.assign(n, 0.0f), sums.weight_b.assign(n, 0.0f);
-    PatchDistances scratch;
-    std::vector<float> wa, wb;
-    for (int dy = -r; dy <= r; ++dy) {
-        if (cancelled.load(std::memory_order_relaxed) || (o.cancel && o.cancel->load(std::memory_order_relaxed)))
+// Solves one pixel's normal equations (Cholesky, in double) into beta
+// (3 x kRegressors); without a solution, the weighted mean.
+void solve_fit(const NormalEquations& eq, int half, size_t i, float* beta) {
+    double a[kRegressors][kRegressors], b[3][kRegressors];
+    int m = 0;
+    for (int r = 0; r < kRegressors; ++r)
+        for (int c = 0; c <= r; ++c, ++m) a[r][c] = a[c][r] = eq.moments[half][m][i];
+    for (int c = 0; c < 3; ++c)
+        for (int r = 0; r < kRegressors; ++r) b[c][r] = eq.targets[half][c * kRegressors + r][i];
+    const double sum_w = a[0][0];
+    for (int r = 1; r < kRegressors; ++r) a[r][r] += kRidge * sum_w;
+    bool ok = sum_w > 0.0;
+    for (int r = 0; r < kRegressors && ok; ++r) {  // a = L L^T in the lower triangle
+        for (int c = 0; c <= r; ++c) {
+            double s = a[r][c];
+            for (int k = 0; k < c; ++k) s -= a[r][k] * a[c][k];
+            if (c < r) a[r][c] = s / a[c][c];
+            else if (s > 1e-12 * sum_w) a[r][r] = std::sqrt(s);
+            else ok = false;
+        }
+    }
+    for (int c = 0; c < 3; ++c) {
+        float* out = beta + c * kRegressors;
+        if (!ok) {
+            out[0] = sum_w > 0.0 ? float(b[c][0] / sum_w) : 0.0f;
+            std::fill_n(out + 1, kRegressors - 1, 0.0f);
+            continue;
+        }
+        double y[kRegressors];
+        for (int r = 0; r < kRegressors; ++r) {
+            double s = b[c][r];
+            for (int k = 0; k < r; ++k) s -= a[r][k] * y[k];
+            y[r] = s / a[r][r];
+        }
+        for (int r = kRegressors - 1; r >= 0; --r) {
+            double s = y[r];
+            for (int k = r + 1; k < kRegressors; ++k) s -= a[k][r] * out[k];
+            out[r] = float(s / a[r][r]);
+        }
+    }
+}
+
+// Adds the fits of the windows centred at q = p + d, evaluated at p, to the
+// band's sums (3 colour planes and the weight, per half).
+void evaluate_row(const std::vector<float>& beta, ptrdiff_t q, ptrdiff_t o, int count, const RowScratch& s, int half,
+                  std::vector<float>* sums, size_t size) {
+    const float* __restrict w = s.weight[half];
+    for (int c = 0; c < 3; ++c) {
+        float* __restrict acc = sums[c].data() + o;
+        const float* __restrict b0 = beta.data() + size_t(c * kRegressors) * size + q;
+        for (int x = 0; x < count; ++x) acc[x] += w[x] * b0[x];
+        for (int i = 1; i < kRegressors; ++i) {
+            // p relative to the centre q is -z.
+            const float* __restrict bi = beta.data() + size_t(c * kRegressors + i) * size + q;
+            const float* __restrict zi = s.z[i].data();
+            for (int x = 0; x < count; ++x) acc[x] -= w[x] * bi[x] * zi[x];
+        }
+    }
+    float* __restrict sum_w = sums[3].data() + o;
+    for (int x = 0; x < count; ++x) sum_w[x] += w[x];
+}
+
+struct FilterParams {
+    float k;      // colour tolerance
+    int window;   // radius
+    int patch;    // radius
+};
+
+// Shared by the bands of one denoise(): cancelling and the progress report.
+struct Run {
+    const DenoiseOptions& options;
+    const DenoiseProgress& progress;
+    int steps = 1;  // band-phases in all
+    std::thread::id caller = std::this_thread::get_id();
+    std::atomic<bool> cancelled{false};
+    std::atomic<int> done{0};
+    std::chrono::steady_clock::time_point last_report = std::chrono::steady_clock::now();
+
+    bool stopped() const {
+        return cancelled.load(std::memory_order_relaxed) ||
+               (options.cancel && options.cancel->load(std::memory_order_relaxed));
+    }
+    // One band-phase done. Reports only from the calling thread (it takes
+    // part in the loops), at most every 100 ms.
+    void step() {
+        const int d = done.fetch_add(1) + 1;
+        const auto now = std::chrono::steady_clock::now();
+        if (!progress || std::this_thread::get_id() != caller || now - last_report < std::chrono::milliseconds(100))
             return;
-        for (int dx = -r; dx <= r; ++dx) {
-            patch_distances(img, y0, y1, dx, dy, f, k * k, scratch);
-            accumulate_offset(img, y0, y1, dx, dy, scratch, sums, wa, wb);
+        last_report = now;
+        if (!progress(std::min(1.0, double(d) / double(steps)))) cancelled.store(true);
+    }
+};
+
+// The weights of every pair (p, p + d) of band [y0, y1) and window offset
+// d, both halves: weights[half][(offset * rows + y - y0) * width + x], 0
+// where p + d is outside. Stored, so that the fits then run row by row
+// over all offsets with one row's normal equations in cache.
+bool band_weights(const Image& img, const FilterParams& fp, int y0, int y1, const Run& run,
+                  std::vector<float>* weights) {
+    const int w = img.width, h = img.height, r = fp.window, side = 2 * r + 1;
+    const size_t rows = size_t(y1 - y0), plane = rows * size_t(w);
+    for (int half = 0; half < 2; ++half) weights[half].assign(size_t(side * side) * plane, 0.0f);
+    PatchDistances dist;
+    for (int iy = 0; iy < side; ++iy) {
+        if (run.stopped()) return false;
+        const int dy = iy - r;
+        for (int ix = 0; ix < side; ++ix) {
+            const int dx = ix - r;
+            patch_distances(img, y0, y1, dx, dy, fp.patch, fp.k * fp.k, dist);
+            const size_t offset = size_t(iy * side + ix) * plane;
+            const int x0 = std::max(0, -dx), x1 = std::min(w, w - dx);
+            for (int y = y0; y < y1; ++y) {
+                if (y + dy < 0 || y + dy >= h) continue;
+                const ptrdiff_t p = ptrdiff_t(y) * w + x0, q = ptrdiff_t(y + dy) * w + dx + x0;
+                const ptrdiff_t o = ptrdiff_t(y - y0) * w + x0;
+                row_weights(img, p, q, dist.dist_a.data() + o, dist.dist_b.data() + o, x1 - x0,
+                            weights[0].data() + offset + size_t(o), weights[1].data() + offset + size_t(o));
+            }
         }
     }
-    const size_t first = size_t(y0) * size_t(w);
-    for (size_t i = 0; i < n; ++i) {
-        const bool valid = img.planes[kValid][first + i] != 0.0f;
-        for (int c = 0; c < 3; ++c) {
-            // The centre pixel always weighs 1 (distance <= 0): no division by 0.
-            const float m = img.modulation[3 * (first + i) + size_t(c)];
-            out_a[3 * i + c] = valid ? sums.sum_a[c][i] / sums.weight_a[i] * m : 0.0f;
-            out_b[3 * i + c] = valid ? sums.sum_b[c][i] / sums.weight_b[i] * m : 0.0f;
+    return true;
+}
+
+// Calls visit(q, x0, count, row) for every window offset d of row y once
+// row.weight and row.z hold the pairs (p, p + d) for x in [x0, x0 + count):
+// q is the image offset of the first p + d.
+template <class Visit>
+void for_each_offset(const Image& img, const FilterParams& fp, int y, int y0, int y1,
+                     const std::vector<float>* weights, RowScratch& row, Visit&& visit) {
+    const int w = img.width, h = img.height, r = fp.window, side = 2 * r + 1;
+    const float inv_r = r > 0 ? 1.0f / float(r) : 0.0f;
+    const size_t plane = size_t(y1 - y0) * size_t(w);
+    for (int iy = 0; iy < side; ++iy) {
+        const int dy = iy - r;
+        if (y + dy < 0 || y + dy >= h) continue;
+        for (int ix = 0; ix < side; ++ix) {
+            const int dx = ix - r;
+            const int x0 = std::max(0, -dx), x1 = std::min(w, w - dx);
+            const ptrdiff_t p = ptrdiff_t(y) * w + x0, q = ptrdiff_t(y + dy) * w + dx + x0;
+            const size_t o = size_t(iy * side + ix) * plane + size_t(y - y0) * size_t(w) + size_t(x0);
+            row.weight[0] = weights[0].data() + o, row.weight[1] = weights[1].data() + o;
+            row_regressors(img, p, q, x1 - x0, float(dx) * inv_r, float(dy) * inv_r, row);
+            visit(q, x0, x1 - x0, row);
         }
     }
+}
+
+// The fits of band [y0, y1), both halves, into beta[half] (3 x kRegressors
+// planes of the whole image).
+bool fit_band(const Image& img, const FilterParams& fp, int y0, int y1, const Run& run, std::vector<float>* beta) {
+    const size_t w = size_t(img.width), size = w * size_t(img.height);
+    std::vector<float> weights[2];
+    if (!band_weights(img, fp, y0, y1, run, weights)) return false;
+    const float* colour[2][3];
+    for (int c = 0; c < 3; ++c) colour[0][c] = img.plane(kA + c), colour[1][c] = img.plane(kB + c);
+    NormalEquations eq;  // of one row
+    RowScratch row;
+    row.resize(img.width);
+    float fit[3 * kRegressors];
+    for (int y = y0; y < y1; ++y) {
+        for (int half = 0; half < 2; ++half) {
+            for (auto& v : eq.moments[half]) v.assign(w, 0.0f);
+            for (auto& v : eq.targets[half]) v.assign(w, 0.0f);
+        }
+        for_each_offset(img, fp, y, y0, y1, weights, row, [&](ptrdiff_t q, int x0, int count, const RowScratch& r) {
+            for (int half = 0; half < 2; ++half) accumulate_row(colour[half], q, x0, count, r, half, eq);
+        });
+        const size_t first = size_t(y) * w;
+        for (int half = 0; half < 2; ++half)
+            for (size_t x = 0; x < w; ++x) {
+                solve_fit(eq, half, x, fit);
+                for (int k = 0; k < 3 * kRegressors; ++k) beta[half][size_t(k) * size + first + x] = fit[k];
+            }
+    }
+    return true;
+}
+
+// Band [y0, y1) of both filtered halves (demodulated), into out[half][c].
+bool evaluate_band(const Image& img, const FilterParams& fp, int y0, int y1, const Run& run,
+                   const std::vector<float>* beta, std::vector<float> (*out)[3]) {
+    const size_t w = size_t(img.width), size = w * size_t(img.height);
+    std::vector<float> weights[2];
+    if (!band_weights(img, fp, y0, y1, run, weights)) return false;
+    std::vector<float> sums[2][4];  // of one row
+    RowScratch row;
+    row.resize(img.width);
+    for (int y = y0; y < y1; ++y) {
+        for (auto& half : sums)
+            for (auto& v : half) v.assign(w, 0.0f);
+        for_each_offset(img, fp, y, y0, y1, weights, row, [&](ptrdiff_t q, int x0, int count, const RowScratch& r) {
+            for (int half = 0; half < 2; ++half) evaluate_row(beta[half], q, x0, count, r, half, sums[half], size);
+        });
+        const size_t first = size_t(y) * w;
+        for (int half = 0; half < 2; ++half)
+            for (int c = 0; c < 3; ++c)
+                for (size_t x = 0; x < w; ++x) {
+                    // The centre pair always weighs 1 where valid: no division by 0.
+                    const float wsum = sums[half][3][x];
+                    out[half][c][first + x] = wsum > 0.0f ? sums[half][c][x] / wsum : 0.0f;
+                }
+    }
+    return true;
+}
+
+// Band [y0, y1) of the weighted means (non-local means) of both halves,
+// into out[half][c]: the regression's cheaper relative for the first pass,
+// whose output only guides the second's weights.
+bool mean_band(const Image& img, const FilterParams& fp, int y0, int y1, const Run& run,
+               std::vector<float> (*out)[3]) {
+    const size_t w = size_t(img.width);
+    std::vector<float> weights[2];
+    if (!band_weights(img, fp, y0, y1, run, weights)) return false;
+    std::vector<float> sums[2][4];  // of one row
+    const int r = fp.window, side = 2 * r + 1;
+    const size_t plane = size_t(y1 - y0) * w;
+    for (int y = y0; y < y1; ++y) {
+        for (auto& half : sums)
+            for (auto& v : half) v.assign(w, 0.0f);
+        for (int dy = -r; dy <= r; ++dy) {
+            if (y + dy < 0 || y + dy >= img.height) continue;
+            for (int dx = -r; dx <= r; ++dx) {
+                const int x0 = std::max(0, -dx), count = std::min(img.width, img.width - dx) - x0;
+                const ptrdiff_t q = ptrdiff_t(y + dy) * img.width + dx + x0;
+                const size_t o = size_t((dy + r) * side + dx + r) * plane + size_t(y - y0) * w + size_t(x0);
+                for (int half = 0; half < 2; ++half) {
+                    const float* __restrict wt = weights[half].data() + o;
+                    for (int c = 0; c < 3; ++c) {
+                        const float* __restrict v = img.plane((half ? kB : kA) + c) + q;
+                        float* __restrict acc = sums[half][c].data() + x0;
+                        for (int x = 0; x < count; ++x) acc[x] += wt[x] * v[x];
+                    }
+                    float* __restrict acc = sums[half][3].data() + x0;
+                    for (int x = 0; x < count; ++x) acc[x] += wt[x];
+                }
+            }
+        }
+        for (int half = 0; half < 2; ++half)
+            for (int c = 0; c < 3; ++c)
+                for (size_t x = 0; x < w; ++x) {
+                    const float wsum = sums[half][3][x];
+                    out[half][c][size_t(y) * w + x] = wsum > 0.0f ? sums[half][c][x] / wsum : 0.0f;
+                }
+    }
+    return true;
+}
+
+// Runs band_work(y0, y1) over all bands in parallel; false once cancelled.
+template <class Work>
+bool for_each_band(const Image& img, Run& run, Work&& band_work) {
+    const int bands = (img.height + kBandRows - 1) / kBandRows;
+    tbb::parallel_for(tbb::blocked_range<int>(0, bands, 1), [&](const tbb::blocked_range<int>& range) {
+        for (int band = range.begin(); band != range.end(); ++band) {
+            const int y0 = band * kBandRows, y1 = std::min(img.height, y0 + kBandRows);
+            if (run.stopped() || !band_work(y0, y1)) return;
+            run.step();
+        }
+    });
+    return !run.stopped();
+}
+
+void allocate_halves(size_t size, std::vector<float> (*out)[3]) {
+    for (int half = 0; half < 2; ++half)
+        for (int c = 0; c < 3; ++c) out[half][c].assign(size, 0.0f);
+}
+
+// One regression filter of both halves with weights from the guide planes,
+// into out[half][c] (demodulated). False when cancelled.
+bool regression_filter(const Image& img, const FilterParams& fp, Run& run, std::vector<float> (*out)[3]) {
+    const size_t size = size_t(img.width) * size_t(img.height);
+    std::vector<float> beta[2];
+    for (auto& b : beta) b.assign(size_t(3 * kRegressors) * size, 0.0f);
+    allocate_halves(size, out);
+    return for_each_band(img, run, [&](int y0, int y1) { return fit_band(img, fp, y0, y1, run, beta); }) &&
+           for_each_band(img, run, [&](int y0, int y1) { return evaluate_band(img, fp, y0, y1, run, beta, out); });
 }
 
 // The filtered halves' combination and its relative RMSE estimate (film.h).
@@ -399,6 +678,64 @@ DenoiseResult combine(const Image& img, const std::vector<float>& fa, const std:
     return r;
 }
 
+// The guides of the next pass: the given halves (planes a..a+2, b..b+2).
+void set_guides(Image& img, const std::vector<float> (*halves)[3]) {
+    for (int c = 0; c < 3; ++c) img.planes[kGuideA + c] = halves[0][c], img.planes[kGuideB + c] = halves[1][c];
+}
+
+using Halves = std::vector<float>[2][3];
+
+// Per-pixel selection between candidate filters (Bitterli et al.'s
+// selection): each candidate's squared error is estimated from the other
+// half, ((filtered a - raw b)^2 - Var b + (filtered b - raw a)^2 - Var a)
+// in remodulated units, summed over a box (one pixel's is a single noisy
+// draw); each pixel takes the candidate with the smallest sum.
+void select_candidates(const Image& img, const std::vector<const Halves*>& candidates, Halves& out) {
+    const int w = img.width, h = img.height;
+    const size_t size = size_t(w) * size_t(h);
+    std::vector<std::vector<float>> error(candidates.size(), std::vector<float>(size, 0.0f));
+    for (size_t k = 0; k < candidates.size(); ++k) {
+        const Halves& f = *candidates[k];
+        for (size_t i = 0; i < size; ++i)
+            for (int c = 0; c < 3; ++c) {
+                const float m = img.modulation[3 * i + size_t(c)];
+                const float da = f[0][c][i] - img.planes[kB + c][i], db = f[1][c][i] - img.planes[kA + c][i];
+                error[k][i] += m * m * (da * da - img.planes[kVarB + c][i] + db * db - img.planes[kVarA + c][i]);
+            }
+    }
+    allocate_halves(size, out);
+    tbb::parallel_for(0, h, [&](int y) {
+        for (int x = 0; x < w; ++x) {
+            size_t best = 0;
+            double best_error = 0.0;
+            for (size_t k = 0; k < candidates.size(); ++k) {
+                double e = 0.0;
+                for (int yy = std::max(0, y - kSelectionRadius); yy <= std::min(h - 1, y + kSelectionRadius); ++yy)
+                    for (int xx = std::max(0, x - kSelectionRadius); xx <= std::min(w - 1, x + kSelectionRadius); ++xx)
+                        e += error[k][size_t(yy) * size_t(w) + size_t(xx)];
+                if (k == 0 || e < best_error) best = k, best_error = e;
+            }
+            const size_t i = size_t(y) * size_t(w) + size_t(x);
+            for (int half = 0; half < 2; ++half)
+                for (int c = 0; c < 3; ++c) out[half][c][i] = (*candidates[best])[half][c][i];
+        }
+    });
+}
+
+// The filtered halves (demodulated planes), remodulated and combined.
+DenoiseResult remodulate_and_combine(const Image& img, const std::vector<float> (*halves)[3]) {
+    const size_t size = size_t(img.width) * size_t(img.height);
+    std::vector<float> fa(3 * size, 0.0f), fb(3 * size, 0.0f);
+    for (size_t i = 0; i < size; ++i) {
+        if (img.planes[kValid][i] == 0.0f) continue;
+        for (int c = 0; c < 3; ++c) {
+            const float m = img.modulation[3 * i + size_t(c)];
+            fa[3 * i + size_t(c)] = halves[0][c][i] * m, fb[3 * i + size_t(c)] = halves[1][c][i] * m;
+        }
+    }
+    return combine(img, fa, fb);
+}
+
 }  // namespace
 
 DenoiseResult denoise(const Film& film, const DenoiseOptions& options, const DenoiseProgress& progress) {
@@ -413,35 +750,39 @@ DenoiseResult denoise(const Film& film, const DenoiseOptions& options, const Den
     for (size_t i = 0; i < size; ++i)
         if (!read_pixel(sums, i, img)) return {};  // fewer than 2 passes: no halves to cross-filter
 
+    Run run{options, progress};
+    run.steps = 5 * ((img.height + kBandRows - 1) / kBandRows);  // a mean, 2 regressions of 2 phases
+    const FilterParams params{kColourK * std::max(0.0f, options.strength), std::max(0, options.window_radius),
+                              std::max(0, options.patch_radius)};
+    Halves first, second, third, selected;
+    bool complete = false;
     tbb::task_arena arena(options.threads > 0 ? options.threads : tbb::task_arena::automatic);
-    const int bands = (img.height + kBandRows - 1) / kBandRows;
-    std::vector<float> fa(3 * size), fb(3 * size);
-    std::atomic<int> bands_done{0};
-    std::atomic<bool> cancelled{false};
-    const auto caller = std::this_thread::get_id();
-    auto last_report = std::chrono::steady_clock::now();
     arena.execute([&] {
         suppress_outliers(img);
-        estimate_variances(img);
-        tbb::parallel_for(tbb::blocked_range<int>(0, bands, 1), [&](const tbb::blocked_range<int>& range) {
-            for (int band = range.begin(); band != range.end(); ++band) {
-                if (cancelled.load(std::memory_order_relaxed)) return;
-                const int y0 = band * kBandRows, y1 = std::min(img.height, y0 + kBandRows);
-                const size_t first = 3 * size_t(y0) * size_t(img.width);
-                filter_band(img, options, y0, y1, cancelled, fa.data() + first, fb.data() + first);
-                const int done = bands_done.fetch_add(1) + 1;
-                // Reports only from the calling thread (it takes part in the loop).
-                const auto now = std::chrono::steady_clock::now();
-                if (progress && std::this_thread::get_id() == caller &&
-                    now - last_report > std::chrono::milliseconds(100)) {
-                    last_report = now;
-                    if (!progress(double(done) / double(bands))) cancelled.store(true);
-                }
-            }
-        });
+        estimate_variances(img, kA, kB, kVarA, kVarB, true);
+        for (int c = 0; c < 3; ++c) {
+            img.planes[kGuideA + c] = img.planes[kA + c], img.planes[kGuideB + c] = img.planes[kB + c];
+            img.planes[kGuideVarA + c] = img.planes[kVarA + c], img.planes[kGuideVarB + c] = img.planes[kVarB + c];
+        }
+        // First pass: non-local means. Its output only guides the second
+        // pass's weights; there a regression first pass measured no better
+        // (docs/results/denoise.md) at 3x the cost.
+        allocate_halves(size, first);
+        if (!for_each_band(img, run, [&](int y0, int y1) { return mean_band(img, params, y0, y1, run, first); }))
+            return;
+        // Second pass: regressions of the raw halves, with weights from
+        // the first pass's output, whose patches are far less noisy; two
+        // candidates (patches 7 x 7 and 3 x 3: the smaller follows finer
+        // detail, the larger averages more), selected per pixel.
+        set_guides(img, first);
+        estimate_variances(img, kGuideA, kGuideB, kGuideVarA, kGuideVarB, false);
+        FilterParams small_patch = params;
+        small_patch.patch = std::min(params.patch, 1);
+        complete = regression_filter(img, params, run, second) && regression_filter(img, small_patch, run, third);
+        if (complete) select_candidates(img, {&second, &third}, selected);
     });
-    if (cancelled.load() || (options.cancel && options.cancel->load()) || (progress && !progress(1.0))) return {};
-    return combine(img, fa, fb);
+    if (!complete || run.stopped() || (progress && !progress(1.0))) return {};
+    return remodulate_and_combine(img, selected);
 }
 
 }  // namespace coherent

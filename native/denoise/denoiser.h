@@ -1,26 +1,27 @@
-// The native denoiser: dual-buffer non-local means with feature weights
-// (Rousselle, Manzi and Zwicker 2012, "Adaptive rendering with non-local
-// means filtering"; the feature term as in their 2013 "Robust denoising
-// using feature and color information"), on albedo-demodulated radiance.
+// The native denoiser: nonlinearly weighted first-order regression (Bitterli
+// et al. 2016, "Nonlinearly weighted first-order regression for denoising
+// Monte Carlo renderings", NFOR) on albedo-demodulated radiance, with
+// dual-buffer non-local-means weights (Rousselle, Manzi and Zwicker 2012).
 //
 // Inputs are the film's two half-buffers (the even and the odd sample
 // passes, independent by construction, film.h) and its feature buffers
 // (Denoising Albedo and Normal, denoising_features.h):
-//   1. Demodulate: each half's mean radiance is divided by the albedo, so
-//      textures are never blurred (they come back with the albedo).
+//   1. Demodulate: each half's mean radiance is divided by its own albedo,
+//      so textures are never blurred (they come back with the albedo).
 //   2. Cross-filter: each half is filtered with weights computed from the
-//      OTHER half. The weights are then independent of the noise they
-//      average, so the filter neither locks onto its own outliers nor hides
-//      them, and the two filtered halves stay (nearly) independent.
-//   3. Weights: a pixel q in the search window of p counts with
-//        exp(-(max(0, patch distance of p, q in the guide half) + feature distance))
-//      where the patch distance is the mean over a patch and RGB of
-//        ((G_p - G_q)^2 - (v_p + v_q)) / (eps + k^2 (v_p + v_q))
-//      (v: the guide's estimated variance, so pixels that differ only by
-//      noise have distance ~0), and the feature distance adds albedo and
-//      normal differences beyond their own noise, in units of fixed
-//      tolerances (kernels stay on one side of object and texture edges).
-//   4. Recombine the filtered halves as the film combines the raw ones, and
+//      OTHER half, so the weights are independent of the noise they average.
+//      A weight is exp(-(colour patch distance + normal distance)), the
+//      distances in units of the guides' estimated variance (pixels that
+//      differ only by noise have distance ~0).
+//   3. First pass: non-local means (a weighted mean). Its output guides the
+//      second pass's weights: its patches are far less noisy than the raw
+//      halves'.
+//   4. Second pass: per pixel, a weighted least-squares fit of the colour of
+//      its window against 1, albedo, normal and screen offset; every pixel's
+//      output averages the fits of all windows containing it (collaborative).
+//      Two candidates (7 x 7 and 3 x 3 patches) are selected per pixel by
+//      their error estimated from the other half.
+//   5. Recombine the filtered halves as the film combines the raw ones, and
 //      estimate the result's error from their difference exactly as
 //      Film::relative_rmse_estimate() does for the raw image. That estimate
 //      sees the filter's remaining noise, not its bias (blur): it is a lower
@@ -38,7 +39,7 @@ namespace coherent {
 struct DenoiseOptions {
     // Scales the colour tolerance k: 0 keeps only pixels equal within noise.
     float strength = 1.0f;
-    int window_radius = 8;  // search window (2r+1)^2
+    int window_radius = 3;  // regression window (2r+1)^2
     int patch_radius = 3;   // patch (2f+1)^2 of the colour distance
     int threads = 0;        // 0 = all cores
     // Polled while filtering (null: none): once set, denoise() stops within

@@ -227,5 +227,84 @@ TEST(DenoiseRender, NoisyImageIsTheUndenoisedRenderAndFeaturesAreFilled) {
     for (float v : r.film().resolve(PassType::Combined)) EXPECT_TRUE(std::isfinite(v));
 }
 
+// A rendered scene against a reference of 2 x 2048 spp (other seeds), the
+// reference's own variance (a quarter of its renders' squared difference)
+// subtracted from each mean squared error; over all pixels and over the
+// smooth ones (no 4-neighbour differs by more than 20 % in the reference:
+// away from the edges, whose sub-pixel coverage error no image filter
+// can take back).
+struct SceneErrors {
+    double noisy16, noisy64, noisy256, denoised16, denoised64;
+    double smooth_noisy16, smooth_noisy256, smooth_denoised16;
+};
+
+std::vector<bool> smooth_pixels(const std::vector<float>& ref, int size) {
+    std::vector<bool> smooth(size_t(size) * size_t(size), true);
+    const auto lum = [&](int x, int y) {
+        const size_t i = 3 * (size_t(y) * size_t(size) + size_t(x));
+        return ref[i] + ref[i + 1] + ref[i + 2];
+    };
+    for (int y = 0; y < size; ++y)
+        for (int x = 0; x < size; ++x)
+            for (const auto& [dx, dy] : {std::pair{1, 0}, std::pair{-1, 0}, std::pair{0, 1}, std::pair{0, -1}}) {
+                const int xx = std::clamp(x + dx, 0, size - 1), yy = std::clamp(y + dy, 0, size - 1);
+                const float a = lum(x, y), b = lum(xx, yy);
+                if (std::fabs(a - b) > 0.2f * std::max(a, b)) smooth[size_t(y) * size_t(size) + size_t(x)] = false;
+            }
+    return smooth;
+}
+
+SceneErrors scene_errors(const Scene& scene, int size) {
+    const auto render = [&](int spp, uint64_t seed, bool denoise) {
+        RenderSettings rs;
+        rs.width = rs.height = size;
+        rs.spp = spp;
+        rs.seed = seed;
+        rs.denoise = denoise;
+        Renderer r(scene, rs);
+        r.render();
+        return std::pair{rgb_of(r.film().resolve(PassType::NoisyImage)), rgb_of(r.film().resolve(PassType::Combined))};
+    };
+    const std::vector<float> ref_a = render(2048, 101, false).second, ref_b = render(2048, 202, false).second;
+    double mean = 0.0;
+    for (size_t i = 0; i < ref_a.size(); ++i) mean += 0.5 * (ref_a[i] + ref_b[i]);
+    mean /= double(ref_a.size());
+    std::vector<float> ref(ref_a.size());
+    for (size_t i = 0; i < ref.size(); ++i) ref[i] = 0.5f * (ref_a[i] + ref_b[i]);
+    const std::vector<bool> smooth = smooth_pixels(ref, size);
+    const auto rmse = [&](const std::vector<float>& img, bool smooth_only = false) {
+        double se = 0.0;
+        size_t n = 0;
+        for (size_t i = 0; i < img.size(); ++i) {
+            if (smooth_only && !smooth[i / 3]) continue;
+            const double ref_var = 0.25 * (ref_a[i] - ref_b[i]) * (ref_a[i] - ref_b[i]);
+            se += (img[i] - ref[i]) * (img[i] - ref[i]) - ref_var;
+            ++n;
+        }
+        return std::sqrt(std::max(se / double(std::max<size_t>(n, 1)), 0.0)) / mean;
+    };
+    const auto [noisy16, denoised16] = render(16, 7, true);
+    const auto [noisy64, denoised64] = render(64, 7, true);
+    const std::vector<float> noisy256 = render(256, 7, false).second;
+    return {rmse(noisy16),       rmse(noisy64),          rmse(noisy256),
+            rmse(denoised16),    rmse(denoised64),       rmse(noisy16, true),
+            rmse(noisy256, true), rmse(denoised16, true)};
+}
+
+TEST(DenoiseRender, SphereOnFloorAgainstAReference) {
+    const SceneErrors e = scene_errors(sphere_on_floor_scene(), 32);
+    std::printf("relative RMSE: noisy 16 / 64 / 256 spp %.4f / %.4f / %.4f, denoised 16 / 64 spp %.4f / %.4f\n",
+                e.noisy16, e.noisy64, e.noisy256, e.denoised16, e.denoised64);
+    std::printf("smooth pixels: noisy 16 / 256 spp %.4f / %.4f, denoised 16 spp %.4f\n", e.smooth_noisy16,
+                e.smooth_noisy256, e.smooth_denoised16);
+    // The target (denoised 16 spp below noisy 256 spp) is not met
+    // here: the sampler's 256 spp is 6x better than its 16 spp, not 4x,
+    // and most of the error is the edges' coverage (docs/results/denoise.md).
+    // What holds: the filter lowers the error, most on the smooth pixels.
+    EXPECT_LT(e.denoised16, e.noisy16);
+    EXPECT_LT(e.denoised64, e.noisy64);
+    EXPECT_LT(e.smooth_denoised16, 0.8 * e.smooth_noisy16);
+}
+
 }  // namespace
 }  // namespace coherent
