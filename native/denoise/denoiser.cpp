@@ -132,11 +132,20 @@ bool read_pixel(const Film::Sums& s, size_t i, Image& img) {
 // edge next to a dim ceiling (relative RMSE 0.70 against 0.41 at 6x on the
 // fixture's Cornell box at 16 spp, docs/results/denoise.md).
 constexpr float kOutlierFactor = 6.0f;
+// A pixel the other half also sees bright is a real feature (a highlight, a
+// caustic, a small light seen directly), not an outlier: a half is clipped
+// no lower than kAgreementFactor x the other half's value at that pixel.
+constexpr float kAgreementFactor = 2.0f;
 constexpr int kOutlierRadius = 2;
 
-void suppress_outliers(Image& img) {
+//
+// Returns the pixels both halves see that bright: small features (a
+// highlight, a caustic, a light seen directly) that no filter can predict
+// from their neighbours, so keep_features leaves them unfiltered.
+std::vector<uint8_t> suppress_outliers(Image& img) {
     const int w = img.width, h = img.height;
     const size_t size = size_t(w) * size_t(h);
+    std::vector<uint8_t> features(size, 0);
     std::vector<float> lum[2];
     for (int half = 0; half < 2; ++half) {
         const int g = half ? kB : kA;
@@ -158,14 +167,17 @@ void suppress_outliers(Image& img) {
                     values[n++] = lum[1][j];
                 }
             std::nth_element(values, values + (3 * n) / 4, values + n);
-            const float limit = kOutlierFactor * values[(3 * n) / 4];
+            const float local = kOutlierFactor * values[(3 * n) / 4];
+            features[i] = lum[0][i] > local && lum[1][i] > local;
             for (int half = 0; half < 2; ++half) {
                 const float l = lum[half][i];
+                const float limit = std::max(local, kAgreementFactor * lum[1 - half][i]);
                 if (!(l > limit)) continue;
                 for (int c = 0; c < 3; ++c) img.planes[(half ? kB : kA) + c][i] *= limit / l;
             }
         }
     });
+    return features;
 }
 
 // Each half's variance, from the squared difference of halves a and b
@@ -722,6 +734,14 @@ void select_candidates(const Image& img, const std::vector<const Halves*>& candi
     });
 }
 
+// The pixels suppress_outliers found bright in both halves take their own
+// (clipped) halves: filtering would spread them over their neighbours.
+void keep_features(const Image& img, const std::vector<uint8_t>& features, Halves& out) {
+    for (size_t i = 0; i < features.size(); ++i)
+        if (features[i])
+            for (int c = 0; c < 3; ++c) out[0][c][i] = img.planes[kA + c][i], out[1][c][i] = img.planes[kB + c][i];
+}
+
 // The filtered halves (demodulated planes), remodulated and combined.
 DenoiseResult remodulate_and_combine(const Image& img, const std::vector<float> (*halves)[3]) {
     const size_t size = size_t(img.width) * size_t(img.height);
@@ -758,7 +778,7 @@ DenoiseResult denoise(const Film& film, const DenoiseOptions& options, const Den
     bool complete = false;
     tbb::task_arena arena(options.threads > 0 ? options.threads : tbb::task_arena::automatic);
     arena.execute([&] {
-        suppress_outliers(img);
+        const std::vector<uint8_t> features = suppress_outliers(img);
         estimate_variances(img, kA, kB, kVarA, kVarB, true);
         for (int c = 0; c < 3; ++c) {
             img.planes[kGuideA + c] = img.planes[kA + c], img.planes[kGuideB + c] = img.planes[kB + c];
@@ -780,6 +800,7 @@ DenoiseResult denoise(const Film& film, const DenoiseOptions& options, const Den
         small_patch.patch = std::min(params.patch, 1);
         complete = regression_filter(img, params, run, second) && regression_filter(img, small_patch, run, third);
         if (complete) select_candidates(img, {&second, &third}, selected);
+        keep_features(img, features, selected);
     });
     if (!complete || run.stopped() || (progress && !progress(1.0))) return {};
     return remodulate_and_combine(img, selected);
