@@ -490,8 +490,9 @@ def _checker(gc, node, out):
     return fac if out.identifier == "Fac" else color
 
 
-# Colour spaces whose values Cycles leaves alone: no alpha association, no sRGB decoding.
-DATA_COLORSPACES = ("Non-Color", "Raw", "Linear", "Linear Rec.709", "XYZ", "Filmic Log")
+# Colour spaces whose values Cycles leaves alone, no alpha association: those Blender 3.4's OCIO
+# configuration marks isdata (ColorSpaceManager::colorspace_is_data). Linear, XYZ, Filmic Log are colour.
+DATA_COLORSPACES = ("Non-Color", "Raw")
 
 
 def image_flags(node, image, alpha_linked):

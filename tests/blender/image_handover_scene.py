@@ -8,16 +8,18 @@
 # held three ways: packed into the .blend (a PNG), read from a PNG file, and
 # generated then painted through Image.pixels. Alpha mode Channel Packed: the
 # colour is filtered as stored (a reader that associated the PNG's alpha
-# would darken it), and the straight-alpha premultiplication, which Cycles
-# applies to byte texels before filtering, stays out of this test. Each is
-# rendered by Cycles, then twice by COHERENT: OUT_DIR/<case>_<engine>[_again].exr.
-# Then the same image with alpha mode Straight, packed and file-backed, with
-# Linear and Closest filtering, its Alpha output unused or driving the
-# Emission strength: Cycles associates these byte texels when it loads them
-# (c * a / 255 in integers) and unassociates after filtering only when Alpha
-# is used. Rendered once each: OUT_DIR/straight_<source>_<interp>_<alpha>_<engine>.exr.
-# "HANDOVER_RENDER <case> <n>" precedes each of COHERENT's renders, so its
-# "Coherent: finished ..." line (images reused) can be matched to it.
+# would darken it). Each is rendered by Cycles, then twice by COHERENT:
+# OUT_DIR/<case>_<engine>[_again].exr. "HANDOVER_RENDER <case> <n>" precedes
+# each of COHERENT's renders, so its "Coherent: finished ..." line (images
+# reused) can be matched to it.
+#
+# Then the image with alpha mode Straight, packed, file-backed and as a
+# generated float image (colour space Linear), with Linear and Closest
+# filtering, its Alpha output unused or driving the Emission strength:
+# Cycles associates byte texels when it loads them (c * a / 255 in
+# integers; Blender's float pixels are associated already) and unassociates
+# after filtering only when Alpha is used. Rendered once by each engine:
+# OUT_DIR/straight_<source>_<interp>_<alpha>_<engine>.exr.
 
 import os
 import sys
@@ -89,7 +91,11 @@ def render_straight_cases(scene, material, out_dir):
     packed.pack()
     file_backed = bpy.data.images.load(path, check_existing=False)
     file_backed.name = "straight_file"
-    for source, image in (("packed", packed), ("file", file_backed)):
+    # Float pixels Blender holds associated already; scene-linear "Linear" is colour, not data.
+    float_image = bpy.data.images.new("straight_float", WIDTH, HEIGHT, alpha=True, float_buffer=True)
+    float_image.colorspace_settings.name = "Linear"
+    float_image.pixels.foreach_set(pattern().ravel())
+    for source, image in (("packed", packed), ("file", file_backed), ("float", float_image)):
         image.alpha_mode = "STRAIGHT"
         for interpolation in ("Linear", "Closest"):
             for alpha in ("unused", "used"):

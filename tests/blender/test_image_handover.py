@@ -7,7 +7,7 @@
 # for pixel up to float rounding (as the per-node image cases of
 # test_shader_nodes.py), and the second render must reuse the in-memory
 # images handed over by the first (its stats line says so) with the same
-# pixels. The same byte image with Straight alpha (packed and file-backed,
+# pixels. The same image with Straight alpha (packed, file-backed, float,
 # Linear and Closest, Alpha unused and used) must agree with Cycles too:
 # Cycles associates its texels before filtering (image_handover_scene.py).
 
@@ -21,7 +21,7 @@ import blender_helpers as bh
 SCRIPT = bh.REPO_ROOT / "tests" / "blender" / "image_handover_scene.py"
 ABS_TOL, REL_TOL = 2e-5, 2e-5  # as test_shader_nodes.py
 CASES = ("packed", "file", "generated")
-STRAIGHT_CASES = [f"straight_{source}_{interp}_{alpha}" for source in ("packed", "file")
+STRAIGHT_CASES = [f"straight_{source}_{interp}_{alpha}" for source in ("packed", "file", "float")
                   for interp in ("linear", "closest") for alpha in ("unused", "used")]
 
 
