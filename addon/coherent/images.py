@@ -18,17 +18,44 @@ retained natively under a key (image name, then what changes with its
 pixels: the packed bytes' hash, the generator's settings, or the pixels'
 hash), so a later render of an unchanged image reuses the native copy and
 its cached tiles instead of handing it over again.
+
+Straight-alpha colour byte images are associated here, texel by texel, as
+Cycles does when it loads them (BlenderImageLoader for packed and generated
+images, OIIOImageLoader for files: c = c * a / 255 in integers, truncated),
+so filtering sees the texels Cycles filters; the Image Texture node
+unassociates after filtering when its Alpha output is used. OIIO would read
+a file's texels straight, so such a file is handed over in memory too.
+Float images need nothing: Blender holds float pixels associated already.
+Data (Non-Color), Channel Packed and None images stay as stored.
 """
 
 from __future__ import annotations
 
 import hashlib
+import os
 
 import numpy as np
+
+from .shader_compiler import DATA_COLORSPACES
 
 
 def _in_memory_only(image):
     return image.source != "FILE" or image.packed_file is not None or image.is_dirty
+
+
+def _associated_on_load(image):
+    """Whether Cycles associates this image's texels when it loads them: a straight byte colour image."""
+    return (image.alpha_mode == "STRAIGHT" and not image.is_float and image.channels == 4
+            and image.colorspace_settings.name not in DATA_COLORSPACES)
+
+
+def associate_bytes(pixels):
+    """Cycles' association of straight byte texels, in place: c = c * a / 255, truncated."""
+    rgb = pixels[..., :3].astype(np.uint16)
+    rgb *= pixels[..., 3:4]
+    rgb //= 255
+    pixels[..., :3] = rgb
+    return pixels
 
 
 def _digest(data):
@@ -57,17 +84,22 @@ class ImageExporter:
         return index
 
     def _add(self, image, label):
+        associate = _associated_on_load(image)
+        path = None
         if not _in_memory_only(image):
             import bpy  # only here: the rest of the add-on's material code is bpy-free
-            path = bpy.path.abspath(image.filepath_raw, library=image.library)
-            return self.scene.add_image(label, path=bpy.path.native_pathsep(path))
-        version = _version(image)
+            path = bpy.path.native_pathsep(bpy.path.abspath(image.filepath_raw, library=image.library))
+            if not associate:
+                return self.scene.add_image(label, path=path)
+        version = _version(image, path)
         if version is not None:
             key = f"{_identity(image)}\n{version}"
             index = self.scene.add_retained_image(label, key)
             if index is not None:
                 return index
         pixels = image_pixels(image)
+        if associate and pixels.dtype == np.uint8 and pixels.ndim == 3 and pixels.shape[2] == 4:
+            associate_bytes(pixels)
         if version is None:  # no cheaper signal of a change than the pixels themselves
             key = f"{_identity(image)}\npixels {pixels.shape} {pixels.dtype} {_digest(pixels)}"
             index = self.scene.add_retained_image(label, key)
@@ -76,12 +108,18 @@ class ImageExporter:
         return self.scene.add_image(label, pixels=pixels, key=key if pixels.size else "")
 
 
-def _version(image):
-    """What fixes an unedited packed or generated image's pixels, read without them; None otherwise.
+def _version(image, path=None):
+    """What fixes an unedited packed, generated or file image's pixels, read without them; None otherwise.
     (Blender converts float images to the scene's linear space on load, by their colour space.)"""
     if image.is_dirty:
         return None
     spaces = f"{image.colorspace_settings.name} {image.alpha_mode}"
+    if path is not None:
+        try:
+            stat = os.stat(path)
+        except OSError:
+            return None
+        return f"file {spaces} {path} {stat.st_size} {stat.st_mtime_ns}"
     if image.source == "FILE" and image.packed_file is not None:
         return f"packed {spaces} {_digest(image.packed_file.data)}"
     if image.source == "GENERATED":

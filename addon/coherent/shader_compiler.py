@@ -51,7 +51,7 @@ TEX_COORDS = {"UV": 0, "Generated": 1, "Object": 2, "Normal": 3}
 NORMAL_MAP_SPACES = {"TANGENT": 0, "OBJECT": 1, "WORLD": 2}
 IMAGE_INTERPOLATION = {"Linear": 0, "Closest": 1, "Cubic": 2, "Smart": 2}
 IMAGE_EXTENSION = {"REPEAT": 0, "EXTEND": 1, "CLIP": 2}
-IMAGE_SRGB, IMAGE_UNASSOCIATE, IMAGE_PREMULTIPLY, IMAGE_IGNORE_ALPHA, IMAGE_BYTES = 0x10, 0x20, 0x40, 0x80, 0x100
+IMAGE_SRGB, IMAGE_UNASSOCIATE, IMAGE_IGNORE_ALPHA = 0x10, 0x20, 0x80  # program.h's ImageFlags
 CLAMP_BIT = 0x100          # Math clamp / Mix clamp factor
 CLAMP_RESULT_BIT = 0x200   # Mix (colour) clamp result
 NON_UNIFORM_BIT = 0x400    # Mix (vector) per-component factor
@@ -490,20 +490,25 @@ def _checker(gc, node, out):
     return fac if out.identifier == "Fac" else color
 
 
+# Colour spaces whose values Cycles leaves alone, no alpha association: those Blender 3.4's OCIO
+# configuration marks isdata (ColorSpaceManager::colorspace_is_data). Linear, XYZ, Filmic Log are colour.
+DATA_COLORSPACES = ("Non-Color", "Raw")
+
+
 def image_flags(node, image, alpha_linked):
-    """ImageTexture mode bits for an Image Texture node (Cycles' image flags)."""
+    """ImageTexture mode bits for an Image Texture node (Cycles' image flags). Straight colour texels
+    are associated when handed over (images.py), as Cycles associates them on load, so both Straight
+    and Premultiplied images are unassociated after filtering when Alpha is used (NODE_IMAGE_ALPHA_UNASSOCIATE)."""
     flags = IMAGE_INTERPOLATION.get(node.interpolation, 0)
     flags |= IMAGE_EXTENSION.get(node.extension, 0) << 2
     colorspace = image.colorspace_settings.name if image is not None else "sRGB"
-    is_data = colorspace in ("Non-Color", "Raw", "Linear", "Linear Rec.709", "XYZ", "Filmic Log")
+    is_data = colorspace in DATA_COLORSPACES
     if colorspace == "sRGB" and not getattr(image, "is_float", False):
         flags |= IMAGE_SRGB
     alpha_mode = getattr(image, "alpha_mode", "STRAIGHT")
     if alpha_mode == "NONE":
         flags |= IMAGE_IGNORE_ALPHA
-    elif not is_data and alpha_mode == "STRAIGHT" and not alpha_linked:
-        flags |= IMAGE_PREMULTIPLY | (0 if getattr(image, "is_float", False) else IMAGE_BYTES)
-    elif not is_data and alpha_mode == "PREMUL" and alpha_linked:
+    elif not is_data and alpha_mode in ("STRAIGHT", "PREMUL") and alpha_linked:
         flags |= IMAGE_UNASSOCIATE
     return flags
 

@@ -107,12 +107,11 @@ enum ImageFlags : uint16_t {
     kImageExtensionShift = 2,     // 0 repeat, 1 extend, 2 clip
     kImageExtensionMask = 0xC,
     kImageSrgb = 0x10,            // colours are sRGB-encoded: decode after filtering, as Cycles does for bytes
-    kImageUnassociate = 0x20,     // divide the colour by alpha after filtering (premultiplied image, Alpha used)
-    kImagePremultiply = 0x40,     // multiply the colour by alpha (straight image, Alpha unused: Cycles'
-                                  // colour output is then associated)
+    kImageUnassociate = 0x20,     // divide the colour by alpha after filtering (associated texels, Alpha used)
+    kImagePremultiply = 0x40,     // multiply the filtered colour by alpha (glTF import only: the Blender
+                                  // add-on associates straight texels before filtering, as Cycles does)
     kImageIgnoreAlpha = 0x80,     // alpha mode None: alpha is 1
-    kImageBytes = 0x100,          // 8-bit image: a premultiplied colour is truncated to 8 bits, as Cycles
-                                  // associates byte images when it loads them
+    kImageBytes = 0x100,          // with kImagePremultiply: truncate the associated colour to 8 bits
 };
 
 // Closure parameters a program can drive. Vec3 fields read three registers.

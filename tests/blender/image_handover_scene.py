@@ -8,11 +8,18 @@
 # held three ways: packed into the .blend (a PNG), read from a PNG file, and
 # generated then painted through Image.pixels. Alpha mode Channel Packed: the
 # colour is filtered as stored (a reader that associated the PNG's alpha
-# would darken it), and the straight-alpha premultiplication, which Cycles
-# applies to byte texels before filtering, stays out of this test. Each is
-# rendered by Cycles, then twice by COHERENT: OUT_DIR/<case>_<engine>[_again].exr.
-# "HANDOVER_RENDER <case> <n>" precedes each of COHERENT's renders, so its
-# "Coherent: finished ..." line (images reused) can be matched to it.
+# would darken it). Each is rendered by Cycles, then twice by COHERENT:
+# OUT_DIR/<case>_<engine>[_again].exr. "HANDOVER_RENDER <case> <n>" precedes
+# each of COHERENT's renders, so its "Coherent: finished ..." line (images
+# reused) can be matched to it.
+#
+# Then the image with alpha mode Straight, packed, file-backed and as a
+# generated float image (colour space Linear), with Linear and Closest
+# filtering, its Alpha output unused or driving the Emission strength:
+# Cycles associates byte texels when it loads them (c * a / 255 in
+# integers; Blender's float pixels are associated already) and unassociates
+# after filtering only when Alpha is used. Rendered once by each engine:
+# OUT_DIR/straight_<source>_<interp>_<alpha>_<engine>.exr.
 
 import os
 import sys
@@ -64,24 +71,53 @@ def render(scene, out_dir, name):
     bpy.ops.render.render(write_still=True)
 
 
+def image_tree(material, image, interpolation="Linear", alpha_used=False):
+    nt, emission = node_scenes.fresh_tree(material)
+    tex = node_scenes.node(nt, "ShaderNodeTexImage", interpolation=interpolation, extension="REPEAT")
+    tex.image = image
+    mapping = node_scenes.node(nt, "ShaderNodeMapping", vector_type="POINT")
+    mapping.inputs["Scale"].default_value = (1.3, 1.3, 1.0)
+    nt.links.new(node_scenes.pixel_uv(nt), mapping.inputs[0])
+    nt.links.new(mapping.outputs[0], tex.inputs["Vector"])
+    nt.links.new(tex.outputs["Color"], emission.inputs["Color"])
+    if alpha_used:
+        nt.links.new(tex.outputs["Alpha"], emission.inputs["Strength"])
+
+
+def render_straight_cases(scene, material, out_dir):
+    path = os.path.join(out_dir, "handover.png")
+    packed = bpy.data.images.load(path, check_existing=False)
+    packed.name = "straight_packed"
+    packed.pack()
+    file_backed = bpy.data.images.load(path, check_existing=False)
+    file_backed.name = "straight_file"
+    # Float pixels Blender holds associated already; scene-linear "Linear" is colour, not data.
+    float_image = bpy.data.images.new("straight_float", WIDTH, HEIGHT, alpha=True, float_buffer=True)
+    float_image.colorspace_settings.name = "Linear"
+    float_image.pixels.foreach_set(pattern().ravel())
+    for source, image in (("packed", packed), ("file", file_backed), ("float", float_image)):
+        image.alpha_mode = "STRAIGHT"
+        for interpolation in ("Linear", "Closest"):
+            for alpha in ("unused", "used"):
+                image_tree(material, image, interpolation, alpha == "used")
+                case = f"straight_{source}_{interpolation.lower()}_{alpha}"
+                for engine in ("CYCLES", "COHERENT"):
+                    scene.render.engine = engine
+                    render(scene, out_dir, f"{case}_{engine.lower()}")
+
+
 def main():
     out_dir = sys.argv[sys.argv.index("--") + 1]
     scene, plane, material = node_scenes.setup_scene()
     for case, image in make_images(out_dir).items():
-        nt, emission = node_scenes.fresh_tree(material)
-        tex = node_scenes.node(nt, "ShaderNodeTexImage", interpolation="Linear", extension="REPEAT")
-        tex.image = image
-        mapping = node_scenes.node(nt, "ShaderNodeMapping", vector_type="POINT")
-        mapping.inputs["Scale"].default_value = (1.3, 1.3, 1.0)
-        nt.links.new(node_scenes.pixel_uv(nt), mapping.inputs[0])
-        nt.links.new(mapping.outputs[0], tex.inputs["Vector"])
-        nt.links.new(tex.outputs["Color"], emission.inputs["Color"])
+        image_tree(material, image)
         scene.render.engine = "CYCLES"
         render(scene, out_dir, f"{case}_cycles")
         scene.render.engine = "COHERENT"
         for n, suffix in enumerate(("", "_again")):
             print(f"HANDOVER_RENDER {case} {n}", flush=True)
             render(scene, out_dir, f"{case}_coherent{suffix}")
+    render_straight_cases(scene, material, out_dir)
 
 
 if __name__ == "__main__":

@@ -7,7 +7,9 @@
 # for pixel up to float rounding (as the per-node image cases of
 # test_shader_nodes.py), and the second render must reuse the in-memory
 # images handed over by the first (its stats line says so) with the same
-# pixels.
+# pixels. The same image with Straight alpha (packed, file-backed, float,
+# Linear and Closest, Alpha unused and used) must agree with Cycles too:
+# Cycles associates its texels before filtering (image_handover_scene.py).
 
 import re
 
@@ -19,6 +21,8 @@ import blender_helpers as bh
 SCRIPT = bh.REPO_ROOT / "tests" / "blender" / "image_handover_scene.py"
 ABS_TOL, REL_TOL = 2e-5, 2e-5  # as test_shader_nodes.py
 CASES = ("packed", "file", "generated")
+STRAIGHT_CASES = [f"straight_{source}_{interp}_{alpha}" for source in ("packed", "file", "float")
+                  for interp in ("linear", "closest") for alpha in ("unused", "used")]
 
 
 def _rgb(path):
@@ -44,6 +48,17 @@ def test_handed_over_image_matches_cycles(handover, case):
         bad = np.abs(ours - cycles) > ABS_TOL + REL_TOL * np.abs(cycles)
         assert not bad.any(), f"{case}{suffix}: {bad.sum()} of {bad.size} values differ from Cycles'"
     assert np.array_equal(_rgb(out / f"{case}_coherent.exr"), _rgb(out / f"{case}_coherent_again.exr"))
+
+
+@pytest.mark.parametrize("case", STRAIGHT_CASES)
+def test_straight_alpha_image_matches_cycles(handover, case):
+    out, _ = handover
+    cycles = _rgb(out / f"{case}_cycles.exr")
+    assert cycles.std() > 1e-3, f"{case}: Cycles' image is constant, the case tests nothing"
+    ours = _rgb(out / f"{case}_coherent.exr")
+    bad = np.abs(ours - cycles) > ABS_TOL + REL_TOL * np.abs(cycles)
+    worst = np.max(np.abs(ours - cycles) / np.maximum(np.abs(cycles), 1e-3))
+    assert not bad.any(), f"{case}: {bad.sum()} of {bad.size} values differ from Cycles' (worst {worst:.3g})"
 
 
 def test_second_render_reuses_in_memory_images(handover):
