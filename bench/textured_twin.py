@@ -120,18 +120,10 @@ def build_objects():
         plain = principled(f"{name}_plain", base_color=mean)
         ob.data.materials.append(plain)
         pairs.append((ob, textured, plain))
-    sun = bpy.data.objects.new("sun", bpy.data.lights.new("sun", "SUN"))
-    sun.data.energy = 3.0
-    sun.rotation_euler = (0.6, 0.2, 0.8)
-    scene.collection.objects.link(sun)
-    cam = bpy.data.objects.new("cam", bpy.data.cameras.new("cam"))
-    cam.location = (5.0, -5.0, 4.0)
-    cam.rotation_euler = (0.95, 0.0, 0.785)
-    scene.collection.objects.link(cam)
-    scene.camera = cam
-    world = bpy.data.worlds.new("grey")
-    world.color = (0.2, 0.2, 0.22)
-    scene.world = world
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests" / "blender"))
+    from node_scenes import add_sun_camera_and_grey_world
+
+    add_sun_camera_and_grey_world(scene, (5.0, -5.0, 4.0), (0.2, 0.2, 0.22))
     return scene, pairs
 
 

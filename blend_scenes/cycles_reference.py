@@ -25,3 +25,22 @@ def configure_cycles_reference(scene, samples):
     c.filter_width = 1.0
     c.use_animated_seed = False
     return c
+
+
+def configure_comparison(scene, engine, samples, seed, limits):
+    """Both engines as the per-scene agreement tests compare them: Cycles as
+    above, COHERENT with the same samples, seed and bounce `limits` (a dict of
+    the properties both engines name alike), independent pixels (SPT) and no
+    clamping. `engine` is the one that renders next."""
+    c = configure_cycles_reference(scene, samples)
+    c.seed = seed
+    for key, value in limits.items():
+        setattr(c, key, value)
+    if engine == "COHERENT":
+        s = scene.coherent
+        s.samples = samples
+        s.seed = seed
+        s.sampler = "SPT"
+        s.clamp_direct = s.clamp_indirect = 0.0
+        for key, value in limits.items():
+            setattr(s, key, value)

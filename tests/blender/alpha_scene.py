@@ -23,7 +23,7 @@ import bpy
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "blend_scenes"))
-from cycles_reference import configure_cycles_reference  # noqa: E402
+from cycles_reference import configure_comparison  # noqa: E402
 
 engine, out, samples, size, seed = sys.argv[sys.argv.index("--") + 1:][:5]
 samples, size, seed = int(samples), int(size), int(seed)
@@ -203,18 +203,7 @@ def render_case(nodes_case, path, spp, pixels):
     r.filepath = path
     scene.view_settings.view_transform = "Standard"
 
-    c = configure_cycles_reference(scene, spp)
-    c.seed = seed
-    for key, value in BOUNCES.items():
-        setattr(c, key, value)
-    if engine == "COHERENT":
-        s = scene.coherent
-        s.samples = spp
-        s.seed = seed
-        s.sampler = "SPT"
-        s.clamp_direct = s.clamp_indirect = 0.0
-        for key, value in BOUNCES.items():
-            setattr(s, key, value)
+    configure_comparison(scene, engine, spp, seed, BOUNCES)
     bpy.ops.render.render(write_still=True)
     print("ALPHA_SCENE_WRITTEN", r.filepath)
 

@@ -28,7 +28,7 @@ from pathlib import Path
 import bpy
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "blend_scenes"))
-from cycles_reference import configure_cycles_reference  # noqa: E402
+from cycles_reference import configure_comparison  # noqa: E402
 
 engine, out, samples, size, seed, *cases = sys.argv[sys.argv.index("--") + 1:]
 samples, size, seed = int(samples), int(size), int(seed)
@@ -217,18 +217,7 @@ def render_case(case):
     r.image_settings.color_depth = "32"
     r.filepath = f"{out}_{case}.exr"
     scene.view_settings.view_transform = "Standard"
-    c = configure_cycles_reference(scene, samples)
-    c.seed = seed
-    for key, value in limits.items():
-        setattr(c, key, value)
-    if engine == "COHERENT":
-        s = scene.coherent
-        s.samples = samples
-        s.seed = seed
-        s.sampler = "SPT"
-        s.clamp_direct = s.clamp_indirect = 0.0
-        for key, value in limits.items():
-            setattr(s, key, value)
+    configure_comparison(scene, engine, samples, seed, limits)
     bpy.ops.render.render(write_still=True)
     print("LIGHT_PATH_SCENE_WRITTEN", r.filepath)
 

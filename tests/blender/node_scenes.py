@@ -66,6 +66,24 @@ def setup_scene():
     return scene, plane, material
 
 
+def add_sun_camera_and_grey_world(scene, camera_location, grey):
+    """The whole-scene tests' and benches' lighting and view: a sun (3 W/m^2)
+    from above, a camera at `camera_location` looking down the diagonal at
+    the origin, and a uniform grey world."""
+    sun = bpy.data.objects.new("sun", bpy.data.lights.new("sun", "SUN"))
+    sun.data.energy = 3.0
+    sun.rotation_euler = (0.6, 0.2, 0.8)
+    scene.collection.objects.link(sun)
+    cam = bpy.data.objects.new("cam", bpy.data.cameras.new("cam"))
+    cam.location = camera_location
+    cam.rotation_euler = (0.95, 0.0, 0.785)
+    scene.collection.objects.link(cam)
+    scene.camera = cam
+    world = bpy.data.worlds.new("grey")
+    world.color = grey
+    scene.world = world
+
+
 def fresh_tree(material):
     nt = material.node_tree
     nt.nodes.clear()
@@ -1097,18 +1115,7 @@ def textured_scene():
     nt.links.new(group.outputs[0], bsdf.inputs["Roughness"])
     for ob in (ground, cube):
         ob.data.materials.append(material)
-    sun = bpy.data.objects.new("sun", bpy.data.lights.new("sun", "SUN"))
-    sun.data.energy = 3.0
-    sun.rotation_euler = (0.6, 0.2, 0.8)
-    scene.collection.objects.link(sun)
-    cam = bpy.data.objects.new("cam", bpy.data.cameras.new("cam"))
-    cam.location = (4.0, -4.0, 3.5)
-    cam.rotation_euler = (0.95, 0.0, 0.785)
-    scene.collection.objects.link(cam)
-    scene.camera = cam
-    world = bpy.data.worlds.new("grey")
-    world.color = (0.05, 0.05, 0.05)
-    scene.world = world
+    add_sun_camera_and_grey_world(scene, (4.0, -4.0, 3.5), (0.05, 0.05, 0.05))
     r = scene.render
     r.resolution_x = r.resolution_y = SCENE_RES
     r.resolution_percentage = 100
