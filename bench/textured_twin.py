@@ -208,7 +208,7 @@ def main():
         print("COHERENT's own split, last untextured and textured runs:")
         print("  " + splits[-2])
         print("  " + splits[-1])
-        memory = [re.search(r"images.*", line).group(0) for line in splits if "images" in line]
+        memory = [re.search(r"\d+ images.*", line).group(0) for line in splits if "images" in line]
         print(f"Texture memory, first and last of {len(memory)} textured runs: {memory[0]}; {memory[-1]}")
 
 
