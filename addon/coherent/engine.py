@@ -3,9 +3,11 @@
 
 A render runs in Blender's render thread: export the depsgraph (export.py),
 build the native Renderer (BVH), then render pass by pass. The native render
-releases the GIL and calls back into Python after every sample pass; the
-callback reports progress and statistics, shows the image refining (at most
-every PREVIEW_INTERVAL seconds) and polls test_break() to cancel promptly.
+releases the GIL and calls back into Python after every batch of sample passes
+(about every quarter second, the report_interval setting) and during long
+ones; the callback reports progress and statistics, shows the image refining
+(at most every PREVIEW_INTERVAL seconds) and polls test_break() to cancel
+promptly.
 
 Errors never produce a silent blank image: they are reported with
 report({'ERROR'}) (a command-line render then exits non-zero and writes no

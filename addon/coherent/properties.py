@@ -53,6 +53,7 @@ TABLE_PROPERTIES = {
     "threads": ("threads", dict(description="Render threads; 0 uses Blender's Performance > Threads setting "
                                             "(all cores when set to Auto-Detect)")),
     "tile_size": ("tile_size", {}),
+    "report_interval": ("report_interval", dict(unit="TIME_ABSOLUTE", subtype="TIME_ABSOLUTE")),
     # Denoising, as Cycles' Sampling > Denoise: Render and Viewport.
     "use_denoising": ("denoise", dict(name="Render", description="Denoise final renders with the native "
                                                                  "feature-guided, cross-validated filter; the "
@@ -127,7 +128,7 @@ class CoherentRenderSettings(bpy.types.PropertyGroup):
     # rows are added in register(), from TABLE_PROPERTIES.
     write_convergence: BoolProperty(
         name="Write Convergence", description="After a final render, write <output path>_convergence.csv "
-                                              "(seconds, samples and estimated error of every sample pass) next "
+                                              "(seconds, samples and estimated error after every batch of sample passes) next "
                                               "to the render output, to see what accuracy costs in time "
                                               "(plot it with `coherent plot`)",
         default=False)

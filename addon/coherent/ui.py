@@ -246,6 +246,7 @@ class RENDER_PT_coherent_performance(CoherentButtonsPanel, bpy.types.Panel):
         sub2.enabled = rd.threads_mode == "FIXED"
         sub2.prop(rd, "threads")
         layout.prop(props, "tile_size")
+        layout.prop(props, "report_interval")
         # Keeps meshes and BVH between final renders (persistent.py).
         layout.prop(rd, "use_persistent_data", text="Persistent Data")
 

@@ -1,6 +1,6 @@
 // --convergence: a CSV record of how the error estimate fell over time, one
-// row per completed sample pass, for plotting (coherent plot) and for seeing
-// what accuracy costs in time.
+// row per batch of sample passes (--report-interval), for plotting (coherent
+// plot) and for seeing what accuracy costs in time.
 #pragma once
 
 #include <cstdio>

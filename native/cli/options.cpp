@@ -110,7 +110,7 @@ std::vector<OptionSpec> cli_options() {
              std::to_string(d.height) + ")",
          "Output", apply_res},
         {"--convergence", "", "CSV",
-         "write seconds,spp,error_estimate per completed sample pass (from the 2nd, when an estimate exists); "
+         "write seconds,spp,error_estimate per progress report (every batch of sample passes, see --report-interval; from the 2nd, when an estimate exists); "
          "plot it with coherent plot CSV",
          "Output", [](RenderOptions& o, const std::string& v) { o.convergence = v; }},
         {"--passes", "", "NAMES",

@@ -502,9 +502,9 @@ Settings:
         .def(py::init(&make_renderer), py::arg("scene"), py::arg("settings") = py::none())
         .def("render", &PyRenderer::render, py::arg("progress") = py::none(), R"doc(
 Renders all samples; returns False if cancelled. `progress(dict)` is called
-after every sample pass (and periodically within long passes) with keys
-samples_done, samples_total, fraction, seconds, error_estimate, rays,
-mrays_per_s; a falsy
+after every batch of sample passes (report_interval) and periodically within
+one, with keys samples_done, samples_total, fraction, seconds, error_estimate,
+rays, mrays_per_s; a falsy
 return value cancels. An exception raised by the callback cancels the render
 and is re-raised when render() returns.)doc")
         .def("start", &PyRenderer::start, R"doc(

@@ -14,7 +14,9 @@
 #include <tbb/parallel_for.h>
 #include <tbb/task_arena.h>
 
+#include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <memory>
 #include <thread>
 
@@ -396,8 +398,9 @@ std::unique_ptr<WavefrontPool> make_wavefront_pool(const PathContext& ctx, const
     return pool;
 }
 
-// What every tile of pass `pass` shares (all but the pixel rectangle).
-TileJob pass_job(const PathContext& ctx, const ImageSampler& sampler, Film& film, const RenderSettings& rs, int pass,
+// What every tile of a batch of passes shares (all but the pixel rectangle
+// and the pass).
+TileJob pass_job(const PathContext& ctx, const ImageSampler& sampler, Film& film, const RenderSettings& rs,
                  const std::atomic<bool>& cancelled, const std::vector<uint8_t>& converged, WavefrontPool* wavefront) {
     TileJob job;
     job.ctx = &ctx;
@@ -405,7 +408,7 @@ TileJob pass_job(const PathContext& ctx, const ImageSampler& sampler, Film& film
     job.film = &film;
     job.border_x0 = rs.border_x0;
     job.border_y0 = rs.border_y0;
-    job.sample = uint32_t(pass);
+    job.sample = 0;
     job.cancelled = &cancelled;
     job.converged = converged.empty() ? nullptr : converged.data();
     job.film_width = rs.border_width();
@@ -429,21 +432,71 @@ TileJob place_tile(const TileJob& pass_job, const TileLayout& layout, int t, con
     return job;
 }
 
-// One pass: every tile of `layout` in parallel inside `arena`, statistics
-// per thread, summed into `stats` at the end. on_tile_done(tiles done so
-// far) runs after each tile, on the thread that rendered it.
-template <class OnTileDone>
-void render_tiles(tbb::task_arena& arena, const TileLayout& layout, const TileJob& pass_job, const RenderSettings& rs,
-                  RenderStats& stats, OnTileDone&& on_tile_done) {
+// A batch of passes [first, first + count): every tile takes them in
+// order, one at a time, and never on two threads at once (the film
+// accumulates without atomics), while a thread may move to any tile between
+// two passes. So each pixel receives its samples in the order a pass-by-pass
+// render gives them (the same film, bit for bit, for any batch size and
+// thread count), and a batch waits for its slowest thread once, not once
+// per pass.
+class TileQueue {
+public:
+    TileQueue(int tiles, int count) : next_(size_t(tiles)), busy_(size_t(tiles)), count_(count) {}
+
+    // Claims the idle tile that is furthest behind (ties: from a rotating
+    // start, so threads spread out): false when every tile is done or busy,
+    // as the threads holding the busy ones finish them.
+    bool claim(int& tile, int& pass) {
+        const int n = int(next_.size());
+        const int start = int(cursor_.fetch_add(1, std::memory_order_relaxed) % uint32_t(n));
+        for (;;) {
+            int best = -1, best_pass = count_;
+            for (int i = 0; i < n; ++i) {
+                const int t = (start + i) % n;
+                const int p = next_[size_t(t)].load(std::memory_order_relaxed);
+                if (p < best_pass && !busy_[size_t(t)].load(std::memory_order_relaxed)) best = t, best_pass = p;
+            }
+            if (best < 0) return false;
+            // acquire: the previous holder's film writes happen before ours.
+            if (busy_[size_t(best)].exchange(true, std::memory_order_acquire)) continue;  // lost the race
+            tile = best;
+            pass = next_[size_t(best)].load(std::memory_order_relaxed);
+            if (pass < count_) return true;
+            busy_[size_t(best)].store(false, std::memory_order_release);
+        }
+    }
+    void release(int tile) {
+        next_[size_t(tile)].fetch_add(1, std::memory_order_relaxed);
+        busy_[size_t(tile)].store(false, std::memory_order_release);
+    }
+
+private:
+    std::vector<std::atomic<int>> next_;  // per tile: passes of the batch done
+    std::vector<std::atomic<bool>> busy_;
+    std::atomic<uint32_t> cursor_{0};
+    int count_;
+};
+
+// Renders passes [first, first + count) of every tile of `layout` inside
+// `arena`, statistics per thread, summed into `stats` at the end.
+// on_progress(tile passes done so far) runs after each tile pass, on the
+// thread that rendered it.
+template <class OnProgress>
+void render_batch(tbb::task_arena& arena, const TileLayout& layout, const TileJob& batch_job, int first, int count,
+                  const RenderSettings& rs, RenderStats& stats, OnProgress&& on_progress) {
     tbb::enumerable_thread_specific<RenderStats> local;
-    std::atomic<int> tiles_done{0};
+    TileQueue queue(layout.tiles, count);
+    std::atomic<int> done{0};
     arena.execute([&] {
-        tbb::parallel_for(tbb::blocked_range<int>(0, layout.tiles, 1), [&](const tbb::blocked_range<int>& r) {
+        tbb::parallel_for(0, arena.max_concurrency(), [&](int) {
             RenderStats& st = local.local();
-            for (int t = r.begin(); t != r.end(); ++t) {
-                if (pass_job.cancelled->load(std::memory_order_relaxed)) return;
-                layout.kernel(place_tile(pass_job, layout, t, rs), st);
-                on_tile_done(tiles_done.fetch_add(1, std::memory_order_relaxed) + 1);
+            int tile = 0, pass = 0;
+            while (!batch_job.cancelled->load(std::memory_order_relaxed) && queue.claim(tile, pass)) {
+                TileJob job = place_tile(batch_job, layout, tile, rs);
+                job.sample = uint32_t(first + pass);
+                layout.kernel(job, st);
+                queue.release(tile);
+                on_progress(done.fetch_add(1, std::memory_order_relaxed) + 1);
             }
         });
     });
@@ -478,29 +531,34 @@ bool Renderer::render(const ProgressCallback& progress) {
     tbb::task_arena arena(settings_.threads > 0 ? settings_.threads : tbb::task_arena::automatic);
     ProgressReporter reporter(progress, spp, start);
     reset_stats();
-    for (int pass = 0; pass < spp && !cancelled() && tiles > 0; ++pass) {
-        const ImageSampler sampler(samplers, uint32_t(pass), 1);
-        const TileLayout& L = trial && pass == 0 ? single_layout : layout;
-        const auto pass_start = Clock::now();
-        const TileJob job = pass_job(ctx, sampler, film_, settings_, pass, cancelled_, converged_, wavefront.get());
-        render_tiles(arena, L, job, settings_, stats_, [&](int tiles_done) {
-            if (reporter.due() && !reporter.report(pass, (pass + double(tiles_done) / L.tiles) / spp, stats_))
+    int done = 0;
+    double seconds_per_pass = 0.0;
+    while (done < spp && !cancelled() && tiles > 0) {
+        const int count = batch_size(done, spp, seconds_per_pass, reporter.seconds());
+        const ImageSampler sampler(samplers, uint32_t(done), uint32_t(count));
+        const TileLayout& L = trial && done == 0 ? single_layout : layout;
+        const auto batch_start = Clock::now();
+        const TileJob job = pass_job(ctx, sampler, film_, settings_, cancelled_, converged_, wavefront.get());
+        render_batch(arena, L, job, done, count, settings_, stats_, [&](int tile_passes) {
+            if (reporter.due() && !reporter.report(done, (done + double(tile_passes) / L.tiles) / spp, stats_))
                 cancel();
         });
         if (cancelled()) break;
-        if (trial && pass < 2) {
-            trial_seconds[pass] = std::chrono::duration<double>(Clock::now() - pass_start).count();
-            if (pass == 1 && trial_seconds[0] < trial_seconds[1]) {  // single rays were faster
+        const double seconds = std::chrono::duration<double>(Clock::now() - batch_start).count();
+        if (trial && done < 2) {  // batches of one pass until then
+            trial_seconds[done] = seconds;
+            if (done == 1 && trial_seconds[0] < trial_seconds[1]) {  // single rays were faster
                 layout = single_layout;
                 settings_.traversal = Traversal::Single;
             }
         }
-        const int passes_done = pass + 1;
-        stats_.spp = passes_done;
-        // O(pixels), negligible next to a pass of path tracing.
-        if (passes_done >= 2) stats_.error_estimate = film_.relative_rmse_estimate();
-        if (!reporter.report(passes_done, double(passes_done) / spp, stats_)) cancel();
-        if (stop_after_pass(passes_done, spp)) break;
+        seconds_per_pass = seconds / count;
+        done += count;
+        stats_.spp = done;
+        // O(pixels), once per batch.
+        if (done >= 2) stats_.error_estimate = film_.relative_rmse_estimate();
+        if (!reporter.report(done, double(done) / spp, stats_)) cancel();
+        if (stop_after_pass(done, spp)) break;
     }
     if (settings_.denoise && !cancelled())
         denoise_film([&](double f) { return reporter.report(stats_.spp, 1.0, stats_, f); });
@@ -554,6 +612,36 @@ bool Renderer::stop_after_pass(int passes_done, int spp) {
     // stats_.seconds was set by the pass's progress report: the decision
     // uses exactly the time the progress callback was shown.
     return settings_.time_limit > 0.0 && stats_.seconds >= settings_.time_limit;
+}
+
+int Renderer::batch_size(int done, int spp, double seconds_per_pass, double elapsed) const {
+    const int left = spp - done;
+    // The first two passes alone: the traversal trial times them, and the
+    // error estimate starts after them.
+    if (done < 2 || settings_.report_interval <= 0.0 || settings_.progressive_display || seconds_per_pass <= 0.0)
+        return 1;
+    int count = int(std::min(settings_.report_interval / seconds_per_pass, double(left)));
+    // Grow by at most half the passes done, so reports, error estimates and
+    // stopping decisions keep coming at a steady rate in log(spp).
+    count = std::min(count, std::max(2, done / 2));
+    if (settings_.adaptive) {
+        const int first_decision = settings_.adaptive_min_samples + (settings_.adaptive_min_samples & 1);
+        count = std::min(count, done < first_decision ? first_decision - done : std::max(2, done / 4));
+    }
+    // Not far past the error target: at error ~ 1/sqrt(passes) it needs
+    // done x (error / target)^2 passes in all; go half way there, as the
+    // estimate is itself noisy.
+    const double error = stats_.error_estimate;
+    if (settings_.target_error > 0.0 && error > settings_.target_error) {
+        const double needed = done * (error / settings_.target_error) * (error / settings_.target_error);
+        count = std::min(count, std::max(2, int(std::ceil((needed - done) / 2.0))));
+    }
+    count = std::max(count, 2);  // batches end at even pass counts (both halves equal)
+    // End by the time limit, even at an odd count: the render stops there.
+    if (settings_.time_limit > 0.0)
+        count = std::min(count, std::max(1, int((settings_.time_limit - elapsed) / seconds_per_pass)));
+    if (count < left && count > 1 && (done + count) % 2 != 0) --count;
+    return std::clamp(count, 1, left);
 }
 
 namespace {

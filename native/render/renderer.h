@@ -17,8 +17,9 @@
 
 namespace coherent {
 
-// Called after every completed sample pass (and periodically within long
-// passes with the same `samples_done`). Return false to cancel.
+// Called after every completed batch of sample passes (one pass, or several:
+// settings.report_interval), and about every 250 ms within a batch with the
+// same `samples_done`. Return false to cancel.
 // Invoked on the thread that called render(), never concurrently.
 struct Progress {
     int samples_done = 0;
@@ -51,7 +52,8 @@ public:
     ~Renderer();
 
     // Renders settings.spp samples per pixel, pass by pass (sample 0 over the
-    // whole film, then sample 1, ...), stopping early at settings.target_error
+    // whole film, then sample 1, ...; a tile may run ahead of another within
+    // a batch of passes), stopping early at settings.target_error
     // or settings.time_limit (see settings.h); stats().spp says how many
     // passes were taken. Returns false if cancelled. Thread-safe
     // with respect to cancel() only.
@@ -96,6 +98,10 @@ private:
     // after a pass, adaptive sampling and the stopping rules (whether to stop).
     void reset_stats();
     bool stop_after_pass(int passes_done, int spp);
+    // Passes the next batch renders (settings.h, report_interval), given the
+    // passes done, the seconds one took in the last batch, and the seconds
+    // since the render started.
+    int batch_size(int done, int spp, double seconds_per_pass, double elapsed) const;
     // Denoises the film (settings.denoise); report(fraction) returns false to cancel.
     void denoise_film(const std::function<bool(double)>& report);
     std::atomic<bool> cancelled_{false};

@@ -268,6 +268,10 @@ std::vector<SettingSpec> frame_rows() {
                      "the world seen directly gives alpha 0"));
     t.push_back(integer("threads", "Threads", "Performance", &RenderSettings::threads, 0, 4096, 0,
                         "render threads; 0 = all cores"));
+    t.push_back(real("report_interval", "Report Interval", "Performance", &RenderSettings::report_interval, 0.0,
+                     60.0, 2.0,
+                     "seconds of rendering between progress reports (and error estimates); passes in between run "
+                     "without waiting for each other. 0 = report after every sample pass"));
     t.push_back(integer("tile_size", "Tile Size", "Performance", &RenderSettings::tile_size, 1, 4096, 1024,
                         "edge length in pixels of the image tiles threads work on"));
     SettingSpec all = flag("force_all_features", "All Features", "Performance", &RenderSettings::force_all_features,

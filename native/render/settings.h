@@ -18,16 +18,25 @@ struct RenderSettings {
     // Stopping rules besides spp; whichever comes first ends the render.
     // target_error: stop once Film::relative_rmse_estimate() (the even/odd
     // half-buffer estimate of the image's relative RMSE) is <= this, checked
-    // after every even number of passes from 2 on. 0 = off.
+    // after every batch of passes (report_interval; always an even number of
+    // passes from 2 on). 0 = off.
     double target_error = 0.0;
-    // time_limit: seconds of wall-clock time; checked between passes, so a
-    // render may overrun it by at most the pass in flight. 0 = off.
+    // time_limit: seconds of wall-clock time; checked between batches of
+    // passes, which are cut short to end by it, so a render overruns it by
+    // about one pass. 0 = off.
     double time_limit = 0.0;
     uint64_t seed = 0;
     int threads = 0;                    // 0 = all cores
+    // Seconds a batch of passes aims to take between progress reports (the
+    // error estimate, stopping rules and the callback run between batches;
+    // inside one, threads move from tile to tile without waiting for each
+    // other). Batches grow to at most half the passes done so far and end at
+    // even pass counts. 0, or progressive_display (the viewport shows every
+    // pass): one pass per report.
+    double report_interval = 0.25;
 
-    // Adaptive sampling (off by default). After every even pass count
-    // >= adaptive_min_samples, a pixel stops receiving samples once the
+    // Adaptive sampling (off by default). After every batch of passes
+    // (report_interval) from adaptive_min_samples on, a pixel stops receiving samples once the
     // relative error it would have at its own count, judged from the pixels
     // just around it (Renderer::update_convergence: their half-buffer errors
     // scaled to its count, over their mean radiance floored at
@@ -36,8 +45,9 @@ struct RenderSettings {
     // packet), are left out of the decision: a stop that reads them selects
     // lucky runs, biasing both the image and its error estimate. Converged
     // pixels keep their samples (the film normalises each pixel by its own
-    // count) and never resume. Decisions only at even pass counts keep the
-    // even and odd halves balanced. Unbiasedness and the calibration of the
+    // count) and never resume. Batches end at even pass counts, which keeps
+    // the even and odd halves balanced, and grow by at most a quarter of the
+    // passes done, so decisions come at least that often. Unbiasedness and the calibration of the
     // error estimate are measured in tests/native/test_adaptive.cpp.
     bool adaptive = false;
     double adaptive_threshold = 0.01;

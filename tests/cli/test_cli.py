@@ -414,7 +414,7 @@ def convergence_csv(cli, cornell, tmp_path_factory):
     d = tmp_path_factory.mktemp("convergence")
     csv = d / "cornell.csv"
     r = run(cli, "render", cornell, "-o", d / "cornell.png", "--res", 48, 48, "--spp", 32, "--threads", 2,
-            "--json", "--convergence", csv)
+            "--json", "--convergence", csv, "--report-interval", 0)
     assert r.returncode == 0, r.stderr
     return csv, json.loads(r.stdout)
 
@@ -432,6 +432,26 @@ def test_convergence_csv_has_one_row_per_pass_with_an_estimate(convergence_csv):
     assert all(e > 0.0 for e in errors), errors
     # Noise falls with samples: 16x the samples should cut the error ~4x; ask for less than half.
     assert errors[-1] < 0.5 * errors[0], errors
+
+
+def test_batches_of_passes_end_at_even_counts_and_grow_by_at_most_half(cli, cornell, tmp_path):
+    # A report interval far longer than the render: only the growth rule
+    # limits the batches, so the rows are the same on any machine.
+    csv, out = tmp_path / "batched.csv", tmp_path / "batched.exr"
+    r = run(cli, "render", cornell, "-o", out, "--res", 48, 48, "--spp", 32, "--threads", 2,
+            "--convergence", csv, "--report-interval", 60)
+    assert r.returncode == 0, r.stderr
+    spp = [n for _, n, _ in read_convergence(csv)]
+    assert spp[0] == 2 and spp[-1] == 32, spp
+    assert len(spp) < 31, spp  # fewer reports than passes
+    assert all(n % 2 == 0 for n in spp), spp
+    assert all(a < b <= a + max(2, a // 2) for a, b in zip(spp, spp[1:])), spp
+    # The batches change when reports come, never the image.
+    single = tmp_path / "single.exr"
+    r = run(cli, "render", cornell, "-o", single, "--res", 48, 48, "--spp", 32, "--threads", 1,
+            "--report-interval", 0)
+    assert r.returncode == 0, r.stderr
+    assert oiio_pixels(out) == oiio_pixels(single)
 
 
 def test_convergence_with_target_error_ends_at_or_below_target(cli, cornell, tmp_path):

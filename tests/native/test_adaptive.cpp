@@ -265,7 +265,7 @@ TEST(Adaptive, UnbiasedForEverySamplerOverSeeds) {
 
 // Adaptive sampling together with a target error: whichever rule ends the
 // render, it ends at an even pass; if the target ended it, the image
-// estimate meets it there and at no earlier even pass; converged pixels
+// estimate meets it there and at no earlier report; converged pixels
 // still hold their own (even) counts.
 TEST(Adaptive, WithTargetErrorStopsByEitherRule) {
     const Scene scene = test::sphere_on_floor_scene();
@@ -287,7 +287,9 @@ TEST(Adaptive, WithTargetErrorStopsByEitherRule) {
         EXPECT_GT(st.converged_pixels, 0u) << what << ": adaptive sampling never acted";
         const bool all_converged = st.converged_pixels == st.pixels;
         EXPECT_TRUE(all_converged || st.error_estimate <= rs.target_error) << what;
-        for (int n = 2; n < st.spp; n += 2) EXPECT_GT(estimate_at[n], rs.target_error) << what << " at " << n;
+        // Every earlier report (one per batch of passes) still missed the target.
+        for (int n = 2; n < st.spp; ++n)
+            if (estimate_at[n] >= 0.0) EXPECT_GT(estimate_at[n], rs.target_error) << what << " at " << n;
         EXPECT_DOUBLE_EQ(st.error_estimate, r.film().relative_rmse_estimate()) << what;
         uint64_t total = 0;
         for (int y = 0; y < kRes; ++y)

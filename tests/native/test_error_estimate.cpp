@@ -177,50 +177,64 @@ struct PassLog {
     }
 };
 
+// With report_interval 0 every pass reports, so the target is checked after
+// every even pass count; with batches (the default) after every batch.
+// Either way the render stops at the first check that meets it.
 TEST(ErrorEstimate, TargetErrorStopsAtFirstEvenPassBelowTarget) {
     const Scene scene = test::sphere_on_floor_scene();
-    for (SamplerType st : {SamplerType::Spt, SamplerType::Cpt, SamplerType::Icpt}) {
-        RenderSettings rs = base_settings(4096, st, test::test_seed(11));
-        rs.target_error = 0.08;
-        Renderer r(scene, rs);
-        PassLog log;
-        ASSERT_TRUE(r.render(log.callback()));
-        const int taken = r.stats().spp;
-        ASSERT_GE(taken, 2);
-        ASSERT_LT(taken, rs.spp) << "target never reached";
-        EXPECT_EQ(taken % 2, 0);
-        EXPECT_LE(r.stats().error_estimate, rs.target_error);
-        EXPECT_DOUBLE_EQ(r.stats().error_estimate, r.film().relative_rmse_estimate());
-        EXPECT_EQ(r.film().samples_at(0, 0), uint32_t(taken));
-        // No earlier even check met the target: it stopped within one batch.
-        ASSERT_EQ(log.at.size(), size_t(taken));
-        for (const auto& [n, p] : log.at)
-            if (n < taken && n >= 2 && n % 2 == 0) {
-                EXPECT_GT(p.error_estimate, rs.target_error) << n;
+    for (double interval : {0.0, RenderSettings().report_interval})
+        for (SamplerType st : {SamplerType::Spt, SamplerType::Cpt, SamplerType::Icpt}) {
+            RenderSettings rs = base_settings(4096, st, test::test_seed(11));
+            rs.target_error = 0.08;
+            rs.report_interval = interval;
+            Renderer r(scene, rs);
+            PassLog log;
+            ASSERT_TRUE(r.render(log.callback()));
+            const int taken = r.stats().spp;
+            ASSERT_GE(taken, 2);
+            ASSERT_LT(taken, rs.spp) << "target never reached";
+            EXPECT_EQ(taken % 2, 0);
+            EXPECT_LE(r.stats().error_estimate, rs.target_error);
+            EXPECT_DOUBLE_EQ(r.stats().error_estimate, r.film().relative_rmse_estimate());
+            EXPECT_EQ(r.film().samples_at(0, 0), uint32_t(taken));
+            if (interval == 0.0) {
+                ASSERT_EQ(log.at.size(), size_t(taken));  // a report per pass
             }
-        std::printf("[target error] %-4s stopped at %d spp, estimate %.4f\n", name_of(st), taken,
-                    r.stats().error_estimate);
-    }
+            // No earlier check met the target.
+            for (const auto& [n, p] : log.at)
+                if (n < taken && n >= 2 && n % 2 == 0) {
+                    EXPECT_GT(p.error_estimate, rs.target_error) << n;
+                }
+            std::printf("[target error] %-4s report interval %.2f s: stopped at %d spp after %zu reports, "
+                        "estimate %.4f\n",
+                        name_of(st), interval, taken, log.at.size(), r.stats().error_estimate);
+        }
 }
 
 TEST(ErrorEstimate, TimeLimitOverrunsByAtMostOnePass) {
     const Scene scene = test::sphere_on_floor_scene();
-    RenderSettings rs = base_settings(1 << 20, SamplerType::Spt, 5);
-    rs.time_limit = 0.3;
-    Renderer r(scene, rs);
-    PassLog log;
-    ASSERT_TRUE(r.render(log.callback()));
-    const int taken = r.stats().spp;
-    ASSERT_GT(taken, 0);
-    ASSERT_LT(taken, rs.spp);
-    ASSERT_EQ(log.at.size(), size_t(taken));
-    // Every pass but the last ended before the limit; the last one is the
-    // first to end at or past it, so the overrun is at most that one pass.
-    for (const auto& [n, p] : log.at) {
-        if (n < taken) {
-            EXPECT_LT(p.seconds, rs.time_limit) << n;
-        } else {
-            EXPECT_GE(p.seconds, rs.time_limit);
+    for (double interval : {0.0, RenderSettings().report_interval}) {
+        RenderSettings rs = base_settings(1 << 20, SamplerType::Spt, 5);
+        rs.time_limit = 0.3;
+        rs.report_interval = interval;
+        Renderer r(scene, rs);
+        PassLog log;
+        ASSERT_TRUE(r.render(log.callback()));
+        const int taken = r.stats().spp;
+        ASSERT_GT(taken, 0);
+        ASSERT_LT(taken, rs.spp);
+        if (interval == 0.0) {
+            ASSERT_EQ(log.at.size(), size_t(taken));
+        }
+        // Every report but the last came before the limit; the last is the
+        // first at or past it. Batches are cut to end by the limit at the
+        // pace of the batch before, so the overrun is about one pass.
+        for (const auto& [n, p] : log.at) {
+            if (n < taken) {
+                EXPECT_LT(p.seconds, rs.time_limit) << n;
+            } else {
+                EXPECT_GE(p.seconds, rs.time_limit);
+            }
         }
     }
 }

@@ -611,6 +611,46 @@ TEST(RenderDeterminism, SameImageForAnyThreadCountAndTileSize) {
     EXPECT_GT(differ, a.size() / 4);  // another seed gives other noise
 }
 
+// Batches of passes (report_interval) change when the caller hears about
+// progress, never the film: within a batch a tile may run passes ahead of
+// another, but each pixel still takes its samples in order, so every
+// traversal gives the image of a pass-by-pass render, bit for bit, at any
+// thread count; and the batches end at even pass counts, growing by at most
+// half the passes done.
+TEST(RenderDeterminism, BatchesOfPassesGiveThePassByPassImage) {
+    const Scene s = simple_lit_scene();
+    for (Traversal t : {Traversal::Single, Traversal::Packet, Traversal::Stream, Traversal::Wavefront}) {
+        RenderSettings rs = furnace_settings(40, 24);
+        rs.max_bounces = 3;
+        rs.sampler = SamplerType::Cpt;
+        rs.traversal = t;
+        rs.tile_size = 8;
+        rs.threads = 1;
+        rs.report_interval = 0.0;
+        const auto by_pass = render_combined(s, rs);
+        rs.threads = 3;
+        rs.report_interval = 60.0;  // longer than the render: only the growth rule limits batches
+        Renderer r(s, rs);
+        std::vector<int> reported;
+        ASSERT_TRUE(r.render([&](const Progress& p) {
+            if (reported.empty() || p.samples_done != reported.back()) reported.push_back(p.samples_done);
+            return true;
+        }));
+        const auto batched = r.film().resolve(PassType::Combined);
+        ASSERT_EQ(by_pass.size(), batched.size());
+        for (size_t i = 0; i < by_pass.size(); ++i) ASSERT_EQ(by_pass[i], batched[i]) << traversal_name(t) << " " << i;
+        ASSERT_GE(reported.size(), 3u);
+        EXPECT_EQ(reported[0], 1);
+        EXPECT_EQ(reported[1], 2);
+        EXPECT_EQ(reported.back(), 24);
+        EXPECT_LT(reported.size(), 24u) << "no pass was batched";
+        for (size_t i = 2; i < reported.size(); ++i) {
+            EXPECT_EQ(reported[i] % 2, 0) << reported[i];
+            EXPECT_LE(reported[i] - reported[i - 1], std::max(2, reported[i - 1] / 2)) << reported[i];
+        }
+    }
+}
+
 TEST(RenderFilm, BorderRendersTheSamePixelsAsTheFullFrame) {
     const Scene s = simple_lit_scene();
     RenderSettings rs = furnace_settings(32, 2);
@@ -668,6 +708,7 @@ TEST(RenderControl, ProgressOnCallingThreadAndCancelByCallback) {
     const Scene s = simple_lit_scene();
     RenderSettings rs = furnace_settings(32, 6);
     rs.max_bounces = 2;
+    rs.report_interval = 0.0;  // a report after every pass
     Renderer r(s, rs);
     const auto caller = std::this_thread::get_id();
     int calls = 0, last_done = 0;
