@@ -3,11 +3,12 @@
 // memory limit). Images that exist only inside the host application (packed,
 // generated or painted in Blender) come as whole pixel buffers (bytes stay
 // bytes, floats floats; memory_images.h) and are filtered straight from that
-// buffer as Cycles' CPU kernel does (image_filter.h): no cache can do better
-// for pixels already in RAM, and an OIIO lookup cost 300-650 ns against tens
-// for the direct filter. Such an image added under a key is retained after the
-// store goes, so the next render of the same unchanged image reuses it
-// (add_retained).
+// buffer as Cycles' CPU kernel does (image_filter.h): for pixels already in
+// RAM a cache adds only work (bilinear over a 2048x2048 byte image: 60 ns per
+// lookup instead of 230 in a small region, 240 instead of 490 at random, where
+// the texel's cache miss is most of both). Such an image added under a key is
+// retained after the store goes, so the next render of the same unchanged
+// image reuses it (add_retained).
 //
 // An image that cannot be read (missing file, zero size, unreadable) keeps
 // its index but looks up Cycles' "missing texture" magenta; the reason is in
