@@ -5,7 +5,7 @@ same pair".
 
 Run from the repository root after building (the add-on's _coherent module):
 
-    /usr/bin/python3 bench/textured_twin.py [--size 128] [--samples 64] [--threads 2] [--repeats 3]
+    /usr/bin/python3 bench/textured_twin.py [--size 128] [--samples 64] [--threads 2] [--repeats 3] [--files]
 
 Scene (built by this file run inside one Blender, factory startup): three UV
 spheres, two cubes and a floor, a sun and a grey world. Textured: every
@@ -16,7 +16,12 @@ through a Normal Map node (tangent space). Untextured twin: the same
 materials with the images' mean colours as constant Base Colors and no
 Normal Map. Both engines render both scenes (no denoising, fixed seed, fixed
 thread count); one warm-up render per engine and scene is not counted, then
-the loop alternates engine and scene REPEATS times. Times are the wall time of
+the loop alternates engine and scene REPEATS times. The images are packed
+into the .blend (held in memory, filtered by COHERENT straight from Blender's
+pixels), or with --files saved as PNG files in a temporary folder and loaded
+from there (COHERENT: the Non-Color normal map through OpenImageIO's texture
+cache; the sRGB albedos, straight alpha, are associated and handed over in
+memory as Cycles associates them on load). Times are the wall time of
 bpy.ops.render.render (sync/export, image hand-over, BVH, render), medians.
 ratio = textured / untextured seconds per engine; the target is
 COHERENT's ratio <= Cycles' ratio.
@@ -31,6 +36,7 @@ import time
 from pathlib import Path
 
 ENGINES = ("CYCLES", "COHERENT")
+IMAGE_DIR = None  # None: images packed; else the folder their PNG files are saved in
 SCENES = ("untextured", "textured")
 
 
@@ -47,7 +53,7 @@ def make_albedo(name, size, tint, seed):
     image = bpy.data.images.new(name, size, size, alpha=False, float_buffer=False)
     image.colorspace_settings.name = "sRGB"
     image.pixels.foreach_set(pixels.ravel())
-    image.pack()
+    image = store_image(image, "sRGB")
     linear = np.where(rgb <= 0.04045, rgb / 12.92, ((rgb + 0.055) / 1.055) ** 2.4)
     return image, tuple(linear.reshape(-1, 3).mean(axis=0)) + (1.0,)
 
@@ -65,8 +71,25 @@ def make_normal_map(size):
     image = bpy.data.images.new("bench_normal", size, size, alpha=False, float_buffer=False)
     image.colorspace_settings.name = "Non-Color"
     image.pixels.foreach_set(pixels.ravel())
-    image.pack()
-    return image
+    return store_image(image, "Non-Color")
+
+
+def store_image(image, colorspace):
+    """Packs a generated image, or saves it as a PNG in IMAGE_DIR and returns that file loaded instead."""
+    import bpy
+
+    if IMAGE_DIR is None:
+        image.pack()
+        return image
+    path = os.path.join(IMAGE_DIR, f"{image.name}.png")
+    image.filepath_raw = path
+    image.file_format = "PNG"
+    image.save()
+    bpy.data.images.remove(image)
+    loaded = bpy.data.images.load(path)
+    loaded.colorspace_settings.name = colorspace
+    assert loaded.packed_file is None and loaded.source == "FILE"
+    return loaded
 
 
 def principled(name, base_color=None, albedo=None, normal=None):
@@ -144,9 +167,11 @@ def configure(scene, size, samples, threads):
         scene.coherent.use_denoising = False
 
 
-def bench_in_blender(size, samples, threads, repeats, out_dir):
+def bench_in_blender(size, samples, threads, repeats, out_dir, image_dir):
     import bpy
 
+    global IMAGE_DIR
+    IMAGE_DIR = image_dir or None
     scene, pairs = build_objects()
     configure(scene, size, samples, threads)
 
@@ -181,18 +206,21 @@ def main():
     parser.add_argument("--samples", type=int, default=64)
     parser.add_argument("--threads", type=int, default=2)
     parser.add_argument("--repeats", type=int, default=3)
+    parser.add_argument("--files", action="store_true", help="images as PNG files on disk instead of packed")
     args = parser.parse_args()
     scripts = bh.make_user_scripts(tempfile.mkdtemp(prefix="twin_bench_"))
     out_dir = tempfile.mkdtemp(prefix="twin_out_")
-    proc = bh.run_blender(["--python", __file__, "--", args.size, args.samples, args.threads, args.repeats, out_dir],
-                          scripts, timeout=None)
+    image_dir = tempfile.mkdtemp(prefix="twin_images_") if args.files else ""
+    proc = bh.run_blender(["--python", __file__, "--", args.size, args.samples, args.threads, args.repeats, out_dir,
+                           image_dir], scripts, timeout=None)
     if proc.returncode != 0:
         raise RuntimeError(proc.describe())
     times = {}
     for engine, which, _, seconds in re.findall(r"TWIN_SECONDS (\S+) (\S+) (\d+) ([\d.]+)", proc.stdout):
         times.setdefault((engine, which), []).append(float(seconds))
     splits = re.findall(r"Coherent: finished .*", proc.stdout)
-    print(f"{args.size}x{args.size}, {args.samples} spp, {args.threads} threads, no denoising; "
+    print(f"{args.size}x{args.size}, {args.samples} spp, {args.threads} threads, no denoising, "
+          f"images {'as PNG files on disk' if args.files else 'packed'}; "
           f"medians of {args.repeats} alternated runs (seconds, wall of bpy.ops.render.render)")
     print("| engine | untextured | textured | ratio textured/untextured | runs (untextured; textured) |")
     print("|---|---|---|---|---|")
@@ -214,7 +242,7 @@ def main():
 
 if __name__ == "__main__":
     if "bpy" in sys.modules:  # run by Blender (--python): build the scenes and time the renders
-        size, samples, threads, repeats, out_dir = sys.argv[sys.argv.index("--") + 1:][:5]
-        bench_in_blender(int(size), int(samples), int(threads), int(repeats), out_dir)
+        size, samples, threads, repeats, out_dir, image_dir = (sys.argv[sys.argv.index("--") + 1:] + [""])[:6]
+        bench_in_blender(int(size), int(samples), int(threads), int(repeats), out_dir, image_dir)
     else:
         main()

@@ -1,7 +1,8 @@
 // Images that exist only in memory (handed over by the host application, or
-// decoded from bytes it holds), served to OpenImageIO as the "files" of a
-// private image format, so its texture cache tiles and caches them like
-// images read from disk.
+// decoded from bytes it holds). The texture store filters them straight from
+// these buffers (image_filter.h); they are also served to OpenImageIO as the
+// "files" of a private image format, which checks them when added and is the
+// reference the direct filter is tested against (TextureStore::lookup_through_oiio).
 //
 // Byte images stay bytes (4 bytes per RGBA pixel; OIIO caches uint8 tiles as
 // uint8 and reads them as value / 255, as Blender does), float images stay

@@ -1,6 +1,7 @@
 // TextureStore: OpenImageIO's TextureSystem behind a small interface. See textures.h.
 #include "textures.h"
 
+#include "image_filter.h"
 #include "memory_images.h"
 
 #include <OpenImageIO/imagecache.h>
@@ -51,6 +52,8 @@ struct TextureStore::Image {
     int channels = 0;
     bool missing = true;
     bool in_memory = false;  // path names a MemoryImages buffer this store holds one use of
+    std::shared_ptr<const PixelBuffer> buffer;  // an in-memory image's pixels, filtered directly
+    ImagePixels pixels;                         // a view of `buffer`; data null for files
 };
 
 // One texture system for the process, never destroyed: destroying one inside
@@ -137,6 +140,11 @@ uint32_t TextureStore::add_memory_image(const std::string& label, const std::str
     image->in_memory = true;
     image->path = name;
     check_image(*image);
+    if (buffer && !image->missing) {
+        image->pixels = ImagePixels{buffer->bytes.data(), buffer->width, buffer->height, buffer->channels,
+                                    buffer->is_float};
+        image->buffer = buffer;
+    }
     images_.push_back(std::move(image));
     return uint32_t(images_.size() - 1);
 }
@@ -183,12 +191,9 @@ bool TextureStore::add_retained(const std::string& label, const std::string& key
     return true;
 }
 
-void TextureStore::lookup(uint32_t index, float u, float v, TextureLookup how, float rgba[4]) const {
-    const Image* image = index < images_.size() ? images_[index].get() : nullptr;
-    if (!image || image->missing) {
-        std::memcpy(rgba, kMissingTexture, sizeof(kMissingTexture));
-        return;
-    }
+namespace {
+
+OIIO::TextureOpt oiio_options(TextureLookup how) {
     OIIO::TextureOpt opt;
     opt.mipmode = OIIO::TextureOpt::MipModeNoMIP;  // Cycles' SVM filters the full-resolution image
     switch (how.interp) {
@@ -201,25 +206,44 @@ void TextureStore::lookup(uint32_t index, float u, float v, TextureLookup how, f
         case TextureLookup::Extension::Extend: opt.swrap = opt.twrap = OIIO::TextureOpt::WrapClamp; break;
         case TextureLookup::Extension::Clip: opt.swrap = opt.twrap = OIIO::TextureOpt::WrapBlack; break;
     }
-    if (how.extension == TextureLookup::Extension::Clip && (u < 0.0f || u > 1.0f || v < 0.0f || v > 1.0f)) {
-        rgba[0] = rgba[1] = rgba[2] = rgba[3] = 0.0f;  // Cycles: nothing outside a clipped image
+    return opt;
+}
+
+}  // namespace
+
+void TextureStore::lookup_by(uint32_t index, float u, float v, TextureLookup how, float rgba[4], bool direct) const {
+    const Image* image = index < images_.size() ? images_[index].get() : nullptr;
+    if (!image || image->missing) {
+        std::memcpy(rgba, kMissingTexture, sizeof(kMissingTexture));
         return;
     }
     const int channels = std::min(image->channels, 4);
     float texel[4] = {0.0f, 0.0f, 0.0f, 1.0f};
-    // Image rows run top to bottom; Blender's v runs bottom to top.
-    oiio_->ts->texture(image->handle, oiio_->ts->get_perthread_info(), opt, u, 1.0f - v, 0.0f, 0.0f, 0.0f, 0.0f,
-                       channels, texel);
-    // Files are not scanned when added (OIIO reads them lazily): a NaN or
-    // infinite texel must still not reach shading (Cycles zeroes them on load).
+    if (direct && image->pixels.data) {
+        filter_image(image->pixels, u, v, how, texel);
+    } else if (how.extension == TextureLookup::Extension::Clip && (u < 0.0f || u > 1.0f || v < 0.0f || v > 1.0f)) {
+        // Nothing outside a clipped image (Cycles' closest; its linear and
+        // cubic fade out over the texels past the edge, as the direct filter).
+        rgba[0] = rgba[1] = rgba[2] = rgba[3] = 0.0f;
+        return;
+    } else {
+        OIIO::TextureOpt opt = oiio_options(how);
+        // Image rows run top to bottom; Blender's v runs bottom to top.
+        oiio_->ts->texture(image->handle, oiio_->ts->get_perthread_info(), opt, u, 1.0f - v, 0.0f, 0.0f, 0.0f, 0.0f,
+                           channels, texel);
+    }
+    // Files are not scanned when added (OIIO reads them lazily), and a filter
+    // of huge values can overflow: a NaN or infinite texel must still not
+    // reach shading (Cycles zeroes them on load).
     for (float& c : texel)
         if (!std::isfinite(c)) c = 0.0f;
+    // Without alpha, texel[3] is 1 (OIIO), or as Cycles the filtered alpha of
+    // 1 (direct: below 1 where a clipped image fades out).
     if (channels <= 2) {  // grey (+ alpha), as Blender reads it
-        rgba[3] = channels == 2 ? texel[1] : 1.0f;
+        rgba[3] = channels == 2 ? texel[1] : texel[3];
         rgba[0] = rgba[1] = rgba[2] = texel[0];
         return;
     }
-    if (channels == 3) texel[3] = 1.0f;
     std::memcpy(rgba, texel, sizeof(texel));
 }
 

@@ -1051,6 +1051,10 @@ def cases():
     c["image_closest_clip"] = image_case("Closest", "CLIP", scale=1.7)
     c["image_linear"] = image_case("Linear", "REPEAT", scale=1.3)
     c["image_cubic"] = image_case("Cubic", "EXTEND", scale=1.3)
+    # Clip: linear and cubic fade out over the texels past the edge, alpha with colour.
+    c["image_linear_clip"] = image_case("Linear", "CLIP", scale=1.3, alpha_out=True, with_alpha=False)
+    c["image_cubic_clip"] = image_case("Cubic", "CLIP", scale=1.3)
+    c["image_cubic_repeat_bytes"] = image_case("Cubic", "REPEAT", scale=1.3, is_float=False)
     c["image_srgb_bytes"] = image_case("Closest", "REPEAT", colorspace="sRGB", is_float=False)
     c["image_alpha"] = image_case("Closest", "REPEAT", alpha_out=True, is_float=False)
     # Alpha output unused: Cycles' colour is then associated (premultiplied) for straight images.
