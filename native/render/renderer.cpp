@@ -433,26 +433,31 @@ TileJob place_tile(const TileJob& pass_job, const TileLayout& layout, int t, con
 }
 
 // A batch of passes [first, first + count): every tile takes them in
-// order, one at a time, and never on two threads at once (the film
+// order, a few at a time (a run), never on two threads at once (the film
 // accumulates without atomics), while a thread may move to any tile between
-// two passes. So each pixel receives its samples in the order a pass-by-pass
+// two runs. So each pixel receives its samples in the order a pass-by-pass
 // render gives them (the same film, bit for bit, for any batch size and
-// thread count), and a batch waits for its slowest thread once, not once
-// per pass.
+// thread count); a batch waits for its slowest thread once, not once per
+// pass; and a run keeps the tile's texels and BVH nodes in cache from one
+// sample to the next, where sweeping the whole image per pass evicts them.
 class TileQueue {
 public:
-    TileQueue(int tiles, int count) : next_(size_t(tiles)), busy_(size_t(tiles)), count_(count) {}
+    // Runs of about a quarter of the batch: the batch ends at most one run
+    // of one tile after the other threads finish.
+    TileQueue(int tiles, int count)
+        : next_(size_t(tiles)), busy_(size_t(tiles)), count_(count), run_(std::max(1, (count + 3) / 4)) {}
 
-    // Claims the idle tile that is furthest behind (ties: from a rotating
-    // start, so threads spread out): false when every tile is done or busy,
-    // as the threads holding the busy ones finish them.
-    bool claim(int& tile, int& pass) {
-        const int n = int(next_.size());
-        const int start = int(cursor_.fetch_add(1, std::memory_order_relaxed) % uint32_t(n));
+    // Claims a run of the idle tile that is furthest behind (ties: from a
+    // rotating start, so threads spread out): passes [pass, pass + n) of the
+    // batch. False when every tile is done or busy, as the threads holding
+    // the busy ones finish them.
+    bool claim(int& tile, int& pass, int& n) {
+        const int tiles = int(next_.size());
+        const int start = int(cursor_.fetch_add(1, std::memory_order_relaxed) % uint32_t(tiles));
         for (;;) {
             int best = -1, best_pass = count_;
-            for (int i = 0; i < n; ++i) {
-                const int t = (start + i) % n;
+            for (int i = 0; i < tiles; ++i) {
+                const int t = (start + i) % tiles;
                 const int p = next_[size_t(t)].load(std::memory_order_relaxed);
                 if (p < best_pass && !busy_[size_t(t)].load(std::memory_order_relaxed)) best = t, best_pass = p;
             }
@@ -461,12 +466,13 @@ public:
             if (busy_[size_t(best)].exchange(true, std::memory_order_acquire)) continue;  // lost the race
             tile = best;
             pass = next_[size_t(best)].load(std::memory_order_relaxed);
-            if (pass < count_) return true;
+            n = std::min(run_, count_ - pass);
+            if (n > 0) return true;
             busy_[size_t(best)].store(false, std::memory_order_release);
         }
     }
-    void release(int tile) {
-        next_[size_t(tile)].fetch_add(1, std::memory_order_relaxed);
+    void release(int tile, int n) {
+        next_[size_t(tile)].fetch_add(n, std::memory_order_relaxed);
         busy_[size_t(tile)].store(false, std::memory_order_release);
     }
 
@@ -474,7 +480,7 @@ private:
     std::vector<std::atomic<int>> next_;  // per tile: passes of the batch done
     std::vector<std::atomic<bool>> busy_;
     std::atomic<uint32_t> cursor_{0};
-    int count_;
+    int count_, run_;
 };
 
 // Renders passes [first, first + count) of every tile of `layout` inside
@@ -490,13 +496,16 @@ void render_batch(tbb::task_arena& arena, const TileLayout& layout, const TileJo
     arena.execute([&] {
         tbb::parallel_for(0, arena.max_concurrency(), [&](int) {
             RenderStats& st = local.local();
-            int tile = 0, pass = 0;
-            while (!batch_job.cancelled->load(std::memory_order_relaxed) && queue.claim(tile, pass)) {
+            int tile = 0, pass = 0, n = 0;
+            while (!batch_job.cancelled->load(std::memory_order_relaxed) && queue.claim(tile, pass, n)) {
                 TileJob job = place_tile(batch_job, layout, tile, rs);
-                job.sample = uint32_t(first + pass);
-                layout.kernel(job, st);
-                queue.release(tile);
-                on_progress(done.fetch_add(1, std::memory_order_relaxed) + 1);
+                int ran = 0;
+                for (; ran < n && !batch_job.cancelled->load(std::memory_order_relaxed); ++ran) {
+                    job.sample = uint32_t(first + pass + ran);
+                    layout.kernel(job, st);
+                    on_progress(done.fetch_add(1, std::memory_order_relaxed) + 1);
+                }
+                queue.release(tile, ran);
             }
         });
     });
