@@ -371,6 +371,28 @@ def _cryptomatte_panel():
     return VIEWLAYER_PT_coherent_passes_crypto
 
 
+# --- Object properties ------------------------------------------------------------
+
+
+class OBJECT_PT_coherent_shadow_terminator(CoherentButtonsPanel, bpy.types.Panel):
+    """Cycles' Geometry Offset (stored on the object by the Cycles add-on), which
+    both engines read; Cycles' Shading Offset is not drawn: we do not use it."""
+    bl_label = "Shadow Terminator"
+    bl_context = "object"
+    bl_options = {"DEFAULT_CLOSED"}
+
+    @classmethod
+    def poll(cls, context):
+        ob = context.object
+        return (super().poll(context) and ob is not None and ob.type in {"MESH", "CURVE", "SURFACE", "META", "FONT"}
+                and hasattr(ob, "cycles"))
+
+    def draw(self, context):
+        layout = self.layout
+        layout.use_property_split = True
+        layout.prop(context.object.cycles, "shadow_terminator_geometry_offset", text="Geometry Offset")
+
+
 classes = (
     RENDER_PT_coherent_sampling,
     RENDER_PT_coherent_adaptive,
@@ -381,6 +403,7 @@ classes = (
     RENDER_PT_coherent_film,
     RENDER_PT_coherent_performance,
     DATA_PT_coherent_light,
+    OBJECT_PT_coherent_shadow_terminator,
     VIEWLAYER_PT_coherent_passes,
     VIEWLAYER_PT_coherent_passes_data,
     VIEWLAYER_PT_coherent_passes_light,

@@ -793,6 +793,22 @@ void set_data_passes(PyScene& s, const py::dict& object_pass_index, const std::v
     d.crypto_asset_names = crypto_asset_names;
 }
 
+// Cycles' per-object Shadow Terminator Geometry Offset (render/shadow_terminator.h).
+void set_shadow_terminator(PyScene& s, const py::dict& offsets) {
+    s.check_mutable("set_shadow_terminator");
+    std::vector<float> per_object(s.scene.object_names.size(), kDefaultTerminatorOffset);
+    for (size_t i = 0; i < per_object.size(); ++i) {
+        const py::str name(s.scene.object_names[i]);
+        if (!offsets.contains(name)) continue;
+        const float value = offsets[name].cast<float>();
+        if (!(value >= 0.0f && value <= 1.0f))
+            throw py::value_error("set_shadow_terminator: the offset of object '" + s.scene.object_names[i] +
+                                  "' must be in [0, 1], got " + std::to_string(value));
+        per_object[i] = value;
+    }
+    s.scene.object_terminator_offset = std::move(per_object);
+}
+
 // Scene.set_data_passes (film/passes.h).
 void bind_data_passes(py::class_<PyScene, std::shared_ptr<PyScene>>& cls) {
     cls.def("set_data_passes", &set_data_passes, py::kw_only(), py::arg("object_pass_index") = py::dict(),
@@ -807,6 +823,11 @@ quadratic, 1 linear, 0.5 inverse quadratic) and AO distance (AO pass; <= 0:
 the ao_distance setting's resolved length). Unset indices are 0.
 crypto_object_names / crypto_asset_names: per object (object_names order)
 the names Cryptomatte hashes (empty: the object's name).)doc");
+    cls.def("set_shadow_terminator", &set_shadow_terminator, py::arg("offsets"), R"doc(
+Cycles' Shadow Terminator Geometry Offset per object {object name: offset in
+[0, 1]} (call after adding the objects; others keep Cycles' default 0.1, and 0
+turns it off): shadow rays that graze a smooth-shaded triangle start from the
+smooth surface its vertex normals describe.)doc");
     cls.def_static("cryptomatte_hash", [](const std::string& name) { return murmur_hash3(name); }, py::arg("name"),
                    "Cycles' Cryptomatte hash of a name (MurmurHash3_x86_32, seed 0).");
     cls.def_static("cryptomatte_manifest", &cryptomatte_manifest, py::arg("names"),

@@ -6,10 +6,14 @@
 //    sample() would produce wi (mixture over the non-delta lobes).
 //  - sample() returns weight = f * |cos| / pdf, or for a delta lobe the lobe's
 //    contribution divided by its selection probability.
-//  - Light leaks through shading normals are prevented by requiring reflected
-//    directions to lie on wo's side of BOTH the shading and the geometric
-//    normal, and transmitted ones on the other side of both; anything else is
-//    black (and never sampled).
+//  - Sampled directions must lie on wo's side of BOTH the shading and the
+//    geometric normal (reflection), or on the other side of both
+//    (transmission); others are never sampled. eval() judges by the shading
+//    normal alone, as Cycles 3.4 does: light that grazes a smooth-shaded
+//    surface from below its flat triangle still shades it, and the shadow ray
+//    (from the smooth surface, render/shadow_terminator.h) decides whether it
+//    arrives. Judging by both normals there left dark triangles along the
+//    terminator of curved, sunlit meshes that Cycles shades smoothly.
 //  - Cycles 3.4 Principled conventions: diffuse and specular are added (not
 //    layered); cspec0 = 0.08 specular (1 - metallic) + base_color metallic,
 //    shaped towards white by the normalised dielectric Fresnel of the ior
@@ -164,10 +168,8 @@ public:
         pdf = 0.0f;
         Vec3f f(0.0f);
         const Vec3f wi = to_local(wi_world);
-        const float ng_dot = dot(wi_world, ng_);
-        const bool reflect_ok = wi.z > 0.0f && ng_dot > 0.0f;
-        const bool transmit_ok = wi.z < 0.0f && ng_dot < 0.0f;
-        if (!reflect_ok && !transmit_ok) return f;
+        const bool reflect_ok = wi.z > 0.0f;
+        if (!reflect_ok && !(wi.z < 0.0f)) return f;
         for (int i = 0; i < count_; ++i) {
             const Lobe& l = lobes_[i];
             if (l.sharp) continue;
@@ -185,9 +187,8 @@ public:
     void eval_split(const Vec3f& wi_world, Vec3f& sum, Vec3f& diffuse, Vec3f& glossy) const {
         sum = diffuse = glossy = Vec3f(0.0f);
         const Vec3f wi = to_local(wi_world);
-        const float ng_dot = dot(wi_world, ng_);
-        const bool reflect_ok = wi.z > 0.0f && ng_dot > 0.0f;
-        if (!reflect_ok && !(wi.z < 0.0f && ng_dot < 0.0f)) return;
+        const bool reflect_ok = wi.z > 0.0f;
+        if (!reflect_ok && !(wi.z < 0.0f)) return;
         for (int i = 0; i < count_; ++i) {
             if (lobes_[i].sharp) continue;
             float lobe_pdf = 0.0f;
@@ -255,6 +256,11 @@ public:
         }
         s.wi = from_local(wi);
         s.delta = false;
+        // A sampled direction must leave on the geometric side its local
+        // frame says (Cycles' samplers test Ng likewise), or the path would
+        // pass through the surface; eval() alone does not check it.
+        const float ng_dot = dot(s.wi, ng_);
+        if (wi.z > 0.0f ? !(ng_dot > 0.0f) : !(ng_dot < 0.0f)) return false;
         const Vec3f f = eval(s.wi, s.pdf);
         if (!(s.pdf > 0.0f)) return false;
         s.weight = f / s.pdf;

@@ -47,6 +47,7 @@
 #include "ray_offset.h"
 #include "render_modes.h"
 #include "shading_normal.h"
+#include "shadow_terminator.h"
 #include "settings.h"
 #include "stats.h"
 #include "transparency.h"
@@ -223,6 +224,9 @@ struct SurfacePoint {
     Vec3f ng;          // geometric normal, as stored (light pdfs use it)
     Vec3f ng_f;        // geometric normal on the side the ray came from
     Vec3f n;           // shading normal on that side
+    Vec3f ns;          // the interpolated normal on that side, unbent (ng_f without normals)
+    float b1, b2;      // barycentric weights of corners 1 and 2 (world-space triangles)
+    bool smooth;       // tri has interpolated normals
     Vec3f wo;          // towards where the ray came from
     bool front;        // the ray hit the side ng points to
     float t;           // the hit's ray parameter (a pass-through continues past it)
@@ -234,14 +238,16 @@ COHERENT_ALWAYS_INLINE void orient(SurfacePoint& sp, const Ray& ray, bool has_no
     sp.wo = -ray.d;
     sp.front = dot(sp.wo, sp.ng) > 0.0f;
     sp.ng_f = sp.front ? sp.ng : -sp.ng;
-    sp.n = sp.ng_f;
+    sp.n = sp.ns = sp.ng_f;
+    sp.smooth = false;
     if (has_normals) {
         const float len = length(interp);
         if (len > 0.0f && std::isfinite(len)) {
-            const Vec3f ns = (sp.front ? interp : -interp) / len;
+            sp.ns = (sp.front ? interp : -interp) / len;
+            sp.smooth = true;
             // Bent towards ng where the viewer's mirror direction would be
             // below the surface, as Cycles 3.4 does (shading_normal.h).
-            sp.n = valid_reflection_normal(sp.ng_f, sp.wo, ns);
+            sp.n = valid_reflection_normal(sp.ng_f, sp.wo, sp.ns);
         }
     }
 }
@@ -289,6 +295,8 @@ COHERENT_ALWAYS_INLINE SurfacePoint surface_point(const Scene& scene, const Ray&
         if (len > 0.0f && std::isfinite(len)) sp.ng = c / len;  // else keep the open pose's normal
     }
     sp.p = triangle_point(v[0], v[1], v[2], hit.u, hit.v, sp.p_error);
+    sp.b1 = hit.u;
+    sp.b2 = hit.v;
     const bool has_normals = scene.has_normals[tri] != 0;
     const Vec3f interp = has_normals ? sn[0] * (1.0f - hit.u - hit.v) + sn[1] * hit.u + sn[2] * hit.v : Vec3f(0.0f);
     orient(sp, ray, has_normals, interp);
@@ -466,10 +474,34 @@ COHERENT_ALWAYS_INLINE void add_emission(const PathContext& ctx, PathState& s, c
     if (s.pass.mask) passes::add_hit_light(s.pass, s.out.passes, c, s.bounce, false);
 }
 
+// Where a shadow ray from sp towards unit direction l starts: just off the
+// surface, past its rounding error; or, where l grazes a smooth-shaded
+// triangle, on the smooth surface its vertex normals describe, as Cycles
+// does (shadow_terminator.h). Light below the geometric surface is then
+// meant to be blocked by the triangle itself: the ray starts on the
+// triangle's lit side, as Cycles, which skips the triangle only where the
+// light is above it. Instanced and moving triangles keep the plain origin.
+COHERENT_ALWAYS_INLINE Vec3f shadow_origin(const Scene& scene, const SurfacePoint& sp, const Vec3f& l) {
+    if (sp.smooth && sp.tri != kInvalidPrim && !scene.is_moving(sp.tri)) {
+        const float cutoff = scene.terminator_offset(sp.tri);
+        Vec3f ng_light;
+        float ng_dot_l = 0.0f;
+        const float amount = cutoff > 0.0f ? terminator_amount(cutoff, sp.ns, sp.ng_f, l, ng_light, ng_dot_l) : 0.0f;
+        if (amount > 0.0f) {
+            const size_t t = 3 * size_t(sp.tri);
+            const Vec3f lift = smooth_surface_lift(&scene.vertices[t], &scene.normals[t], 1.0f - sp.b1 - sp.b2, sp.b1,
+                                                   sp.b2, ng_light);
+            const Vec3f p = sp.p + lift * amount;
+            if (is_finite(p)) return offset_ray_origin(p, sp.p_error, ng_light, ng_dot_l > 0.0f ? l : ng_light);
+        }
+    }
+    return offset_ray_origin(sp.p, sp.p_error, sp.ng_f, l);
+}
+
 // The shadow ray from sp towards light sample ls.
-COHERENT_ALWAYS_INLINE Ray shadow_ray(const SurfacePoint& sp, const LightSample& ls) {
+COHERENT_ALWAYS_INLINE Ray shadow_ray(const Scene& scene, const SurfacePoint& sp, const LightSample& ls) {
     Ray shadow;
-    shadow.o = offset_ray_origin(sp.p, sp.p_error, sp.ng_f, ls.wi);
+    shadow.o = shadow_origin(scene, sp, ls.wi);
     shadow.d = ls.wi;
     shadow.tmin = kSpawnTmin;
     // Analytic lights are not geometry: the shadow ray runs the full
@@ -547,7 +579,7 @@ COHERENT_ALWAYS_INLINE void queue_shadow_ray(const PathContext& ctx, const PathS
     float bsdf_pdf = 0.0f;
     const Vec3f f = bsdf.eval(ls.wi, bsdf_pdf);
     if (is_black(f) || is_black(ls.li)) return;
-    s.shadow = shadow_ray(sp, ls);
+    s.shadow = shadow_ray(*ctx.scene, sp, ls);
     const float w = ls.delta ? 1.0f : power_heuristic(ls.pdf, bsdf_pdf);
     s.shadow_contribution = clamp_contribution(s.throughput * f * ls.li * (w / ls.pdf), s.bounce, *ctx.settings);
     s.has_shadow = true;

@@ -98,6 +98,9 @@ struct DataPassInputs {
 // (previous) and frames[1] (next). A singular `now` leaves it still.
 void set_frame_motion(std::vector<FrameMotion>& list, size_t index, const Transform& now, const Transform* frames);
 
+// Cycles' default Shadow Terminator Geometry Offset of an object.
+constexpr float kDefaultTerminatorOffset = 0.1f;
+
 struct Scene {
     // --- geometry (world space), triangle i uses vertices 3i, 3i+1, 3i+2 ---
     std::vector<Vec3f> vertices;        // 3 per triangle (unindexed: simplest for BVH leaves and for validation)
@@ -106,6 +109,13 @@ struct Scene {
     std::vector<uint32_t> material_of;  // 1 per triangle
     std::vector<uint32_t> object_of;    // 1 per triangle: index into object_names
     std::vector<std::string> object_names;
+    // Cycles' Shadow Terminator > Geometry Offset per object (parallel to
+    // object_names; render/shadow_terminator.h); empty: Cycles' default for all.
+    std::vector<float> object_terminator_offset;
+    float terminator_offset(uint32_t tri) const {
+        if (object_terminator_offset.empty() || tri >= object_of.size()) return kDefaultTerminatorOffset;
+        return object_terminator_offset[object_of[tri]];
+    }
     // Object motion blur: every triangle's corners (and shading normals) at
     // shutter close, parallel to `vertices` / `normals`; empty when nothing
     // moves. `vertices` are the positions at shutter open; a triangle moves

@@ -16,6 +16,11 @@
 #           Geometry > Pointiness and Random Per Island driving an Emission,
 #           seen from above by an orthographic camera (build_pointiness,
 #           build_islands).
+#   terminator / terminator_off
+#           two smooth-shaded low-poly wavy sheets under a grazing sun, black
+#           world, direct light only: one with Cycles' Shadow Terminator
+#           Geometry Offset at 0, the other at its default 0.1 (terminator)
+#           or also at 0 (terminator_off); build_terminator.
 #
 #   blender -b --factory-startup --addons coherent --python light_path_scenes.py -- \
 #       ENGINE OUT SAMPLES SIZE SEED CASE [CASE ...]
@@ -185,6 +190,35 @@ def _top_camera():
     scene.camera = obj
 
 
+def build_terminator(right_offset):
+    """Two low-poly, smooth-shaded wavy sheets (4 vertices per wave) side by
+    side, seen from above, under a sun grazing them across the waves: shadow
+    rays from the flat triangles run into the next crest unless they start
+    from the smooth surface the normals describe."""
+    mat = material("White", lambda nt: diffuse(nt, (0.8, 0.8, 0.8)))
+    for name, y, offset in (("Left", -1.1, 0.0), ("Right", 1.1, right_offset)):
+        columns, rows = 17, 2
+        verts = [(-2.0 + 4.0 * i / (columns - 1), y - 1.0 + 2.0 * j / (rows - 1),
+                  0.3 * math.sin(2.0 * math.pi * i / 4.0 + 0.5))
+                 for j in range(rows) for i in range(columns)]
+        faces = [(j * columns + i, j * columns + i + 1, (j + 1) * columns + i + 1, (j + 1) * columns + i)
+                 for j in range(rows - 1) for i in range(columns - 1)]
+        mesh = bpy.data.meshes.new(name)
+        mesh.from_pydata(verts, [], faces)
+        mesh.polygons.foreach_set("use_smooth", [True] * len(faces))
+        mesh.materials.append(mat)
+        ob = bpy.data.objects.new(name, mesh)
+        ob.cycles.shadow_terminator_geometry_offset = offset
+        scene.collection.objects.link(ob)
+    sun = bpy.data.lights.new("Sun", "SUN")
+    sun.energy = 3.0
+    sun.angle = 0.0
+    sun_obj = bpy.data.objects.new("Sun", sun)
+    sun_obj.rotation_euler = (0.0, math.radians(-70.0), 0.0)  # 20 degrees above the horizon, from -x
+    scene.collection.objects.link(sun_obj)
+    camera((0.0, 0.0, 9.0), (0.0, 0.0, 0.0), 50.0)
+
+
 def render_case(case):
     # (A second read_factory_settings() would unregister the add-on.)
     for ob in list(scene.objects):
@@ -199,11 +233,13 @@ def render_case(case):
         build_pointiness()
     elif case == "islands":
         build_islands()
+    elif case.startswith("terminator"):
+        build_terminator(0.0 if case == "terminator_off" else 0.1)
     else:
         build_sphere(case)
     # Direct light only for the shadow case (deterministic up to pixel
     # coverage); the spheres need the bounces through the glass.
-    bounces = 0 if case in ("shadow", "pointiness", "islands") else 4
+    bounces = 0 if case in ("shadow", "pointiness", "islands", "terminator", "terminator_off") else 4
     limits = dict(max_bounces=bounces, diffuse_bounces=bounces, glossy_bounces=bounces,
                   transmission_bounces=bounces, transparent_max_bounces=8)
 

@@ -289,7 +289,9 @@ TEST(Adaptive, WithTargetErrorStopsByEitherRule) {
         EXPECT_TRUE(all_converged || st.error_estimate <= rs.target_error) << what;
         // Every earlier report (one per batch of passes) still missed the target.
         for (int n = 2; n < st.spp; ++n)
-            if (estimate_at[n] >= 0.0) EXPECT_GT(estimate_at[n], rs.target_error) << what << " at " << n;
+            if (estimate_at[n] >= 0.0) {
+                EXPECT_GT(estimate_at[n], rs.target_error) << what << " at " << n;
+            }
         EXPECT_DOUBLE_EQ(st.error_estimate, r.film().relative_rmse_estimate()) << what;
         uint64_t total = 0;
         for (int y = 0; y < kRes; ++y)

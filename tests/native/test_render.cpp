@@ -18,19 +18,6 @@ using namespace coherent::test;
 
 namespace {
 
-// Blender-style camera frame: right x up = -forward, world +z as the up hint.
-Camera perspective_camera(const Vec3f& position, const Vec3f& target, float half_fov_tan) {
-    Camera c;
-    c.projection = Projection::Perspective;
-    c.position = position;
-    c.forward = normalize(target - position);
-    const Vec3f hint = std::fabs(c.forward.z) > 0.99f ? Vec3f(0, 1, 0) : Vec3f(0, 0, 1);
-    c.right = normalize(cross(c.forward, hint));
-    c.up = cross(c.right, c.forward);
-    c.half_width = c.half_height = half_fov_tan;
-    return c;
-}
-
 RenderSettings furnace_settings(int size, int spp) {
     RenderSettings rs;
     rs.width = rs.height = size;
