@@ -1,8 +1,8 @@
-// NLM-guided first-order regression (denoiser.h).
+// Cross-filtered first-order regression (denoiser.h).
 //
 // Every filter runs over bands of rows in parallel (TBB). Per band it first
 // stores the weights of every (pixel, window offset) pair: for each offset,
-// the per-pixel colour distances of (p, p + d) in both guides, box filtered
+// the per-pixel colour distances of (p, p + d) in both halves, box filtered
 // over the patch (running sums: O(1) per pixel whatever the patch). Then it
 // runs row by row over all offsets, so that one row's normal equations stay
 // in cache. Each band writes only its own rows, so the result does not
@@ -37,6 +37,17 @@ constexpr float kAlbedoBias = 0.01f;
 // Half side of the box over which the noisy per-pixel variances are averaged.
 constexpr int kVarianceRadius = 2;
 constexpr int kBandRows = 8;
+// The log depth of a pixel no sample hit (the world): log(1e10), Cycles'
+// depth there, so that it never weighs with a surface.
+constexpr float kNoHitLogDepth = 23.0f;
+// Tolerance of the weights for log-depth differences: a neighbour 20 %
+// nearer or farther than the centre weighs exp(-1) x its colour and normal
+// weight. An object's silhouette over the surface behind it differs by far
+// more, while a floor seen at a grazing angle changes by a few % a pixel.
+// Depth separates surfaces that share normal and albedo (a box face in
+// front of a parallel wall), which the colour patches see only once the
+// noise is below their difference.
+constexpr float kDepthSigma = 0.2f;
 // Half side of the box over which the candidates' estimated errors are summed.
 constexpr int kSelectionRadius = 1;
 
@@ -50,12 +61,9 @@ enum Plane : int {
     kAlbedo = kVarB + 3,
     kNormal = kAlbedo + 3,
     kNormalVar = kNormal + 3,  // variance of the normal's mean, summed over channels
+    kDepth,              // log of the mean depth of the samples that hit (kNoHitLogDepth if none)
     kValid,              // 1 where the pixel has samples, else 0
-    kGuideA,             // what the weights compare: the halves, then the first pass's output
-    kGuideB = kGuideA + 3,
-    kGuideVarA = kGuideB + 3,
-    kGuideVarB = kGuideVarA + 3,
-    kPlaneCount = kGuideVarB + 3
+    kPlaneCount
 };
 
 struct Image {
@@ -116,6 +124,8 @@ bool read_pixel(const Film::Sums& s, size_t i, Image& img) {
         img.planes[kA + c][i] = even / (std::max(even_albedo, 0.0f) + kAlbedoBias);
         img.planes[kB + c][i] = odd / (std::max(odd_albedo, 0.0f) + kAlbedoBias);
     }
+    img.planes[kDepth][i] =
+        s.hits[i] ? std::log(std::max(s.depth[i] / float(s.hits[i]), 1e-6f)) : kNoHitLogDepth;
     if (s.albedo) {
         img.planes[kNormalVar][i] = feature_variance(s.normal + 3 * i, s.normal_odd + 3 * i, n, n_odd);
     }
@@ -180,18 +190,16 @@ std::vector<uint8_t> suppress_outliers(Image& img) {
     return features;
 }
 
-// Each half's variance, from the squared difference of halves a and b
-// averaged over a small box (one pixel's is a single chi-square draw, far
-// too noisy to normalise distances by). For the film's halves, Var[even
-// mean] = E[(even - odd)^2] n_odd / n (by_counts); for two filtered halves
-// of equal variance, half the squared difference.
-void estimate_variances(Image& img, int a, int b, int var_a, int var_b, bool by_counts) {
+// Each half's variance, from the squared difference of the halves averaged
+// over a small box (one pixel's is a single chi-square draw, far too noisy
+// to normalise distances by): Var[even mean] = E[(even - odd)^2] n_odd / n.
+void estimate_variances(Image& img) {
     const int w = img.width, h = img.height;
     const size_t size = size_t(w) * size_t(h);
     std::vector<float> diff2(3 * size);
     for (int c = 0; c < 3; ++c)
         for (size_t i = 0; i < size; ++i) {
-            const float d = img.planes[a + c][i] - img.planes[b + c][i];
+            const float d = img.planes[kA + c][i] - img.planes[kB + c][i];
             diff2[size_t(c) * size + i] = d * d;  // 0 where invalid: both halves are 0 there
         }
     tbb::parallel_for(0, h, [&](int y) {
@@ -206,24 +214,23 @@ void estimate_variances(Image& img, int a, int b, int var_a, int var_b, bool by_
                     count += img.planes[kValid][j];
                 }
             const float n = img.n_even[i] + img.n_odd[i];
-            const float scale_a = by_counts ? img.n_odd[i] / n : 0.5f, scale_b = by_counts ? img.n_even[i] / n : 0.5f;
             for (int c = 0; c < 3; ++c) {
-                img.planes[var_a + c][i] = sum[c] / count * scale_a;
-                img.planes[var_b + c][i] = sum[c] / count * scale_b;
+                img.planes[kVarA + c][i] = sum[c] / count * img.n_odd[i] / n;
+                img.planes[kVarB + c][i] = sum[c] / count * img.n_even[i] / n;
             }
         }
     });
 }
 
 // Scratch of one band and offset: per-pixel colour distances of rows
-// [y0 - f, y1 + f) in both guides and how many pairs were valid, their
+// [y0 - f, y1 + f) in both halves and how many pairs were valid, their
 // horizontal box sums, and the patch means of rows [y0, y1).
 struct PatchDistances {
     std::vector<float> raw_a, raw_b, raw_n, row_a, row_b, row_n, dist_a, dist_b;
 };
 
 // The colour distance of every pixel p of `row` to p + (dx, 0) of `row_q`
-// over x in [x0, x1), in guide `g` (planes g..g+2, variances v..v+2).
+// over x in [x0, x1), in half `g` (planes g..g+2, variances v..v+2).
 void row_colour_distances(const Image& img, size_t row, size_t row_q, int x0, int x1, int dx, int g, int v, float k2,
                           float* out) {
     float* o = out;
@@ -251,8 +258,8 @@ void patch_distances(const Image& img, int y0, int y1, int dx, int dy, int f, fl
         const int qy = y + dy;
         if (qy < 0 || qy >= h) continue;
         const size_t row = size_t(y) * size_t(w), row_q = size_t(qy) * size_t(w), base = size_t(y - r0) * size_t(w);
-        row_colour_distances(img, row, row_q, x0, x1, dx, kGuideA, kGuideVarA, k2, s.raw_a.data() + base);
-        row_colour_distances(img, row, row_q, x0, x1, dx, kGuideB, kGuideVarB, k2, s.raw_b.data() + base);
+        row_colour_distances(img, row, row_q, x0, x1, dx, kA, kVarA, k2, s.raw_a.data() + base);
+        row_colour_distances(img, row, row_q, x0, x1, dx, kB, kVarB, k2, s.raw_b.data() + base);
         for (int x = x0; x < x1; ++x) {
             const float both = valid[row + size_t(x)] * valid[row_q + size_t(x + dx)];
             s.raw_a[base + size_t(x)] *= both, s.raw_b[base + size_t(x)] *= both, s.raw_n[base + size_t(x)] = both;
@@ -295,8 +302,10 @@ void patch_distances(const Image& img, int y0, int y1, int dx, int dy, int f, fl
 // pointers advanced to the first pair: wa filters half a (guided by b's
 // distance), wb half b. Besides the colour patches, the normals: their
 // squared difference beyond their own noise, over a tolerance, keeps the
-// windows on one side of a geometric edge. (No albedo term: the colour is
-// demodulated and the regression fits against the albedo.) Plain restrict
+// windows on one side of a geometric edge; the log depths' squared
+// difference over kDepthSigma^2, on one side of a silhouette. (No albedo
+// term: the colour is demodulated and the regression fits against the
+// albedo.) Plain restrict
 // pointers, so that the loops vectorise.
 void row_weights(const Image& img, ptrdiff_t p, ptrdiff_t q, const float* __restrict dist_a,
                  const float* __restrict dist_b, int count, float* __restrict wa, float* __restrict wb) {
@@ -311,8 +320,12 @@ void row_weights(const Image& img, ptrdiff_t p, ptrdiff_t q, const float* __rest
     const float* __restrict vq = img.plane(kNormalVar) + q;
     const float* __restrict valid_p = img.plane(kValid) + p;
     const float* __restrict valid_q = img.plane(kValid) + q;
+    const float* __restrict dp = img.plane(kDepth) + p;
+    const float* __restrict dq = img.plane(kDepth) + q;
+    constexpr float kDepthScale = 1.0f / (kDepthSigma * kDepthSigma);
     for (int x = 0; x < count; ++x) {
-        const float v = vp[x] + vq[x], f = std::max(0.0f, wa[x] - v) / (kNormal2 + v);
+        const float v = vp[x] + vq[x];
+        const float f = std::max(0.0f, wa[x] - v) / (kNormal2 + v) + kDepthScale * (dp[x] - dq[x]) * (dp[x] - dq[x]);
         const float both = valid_p[x] * valid_q[x];
         wb[x] = both * exp_negative(-(std::max(0.0f, dist_a[x]) + f));
         wa[x] = both * exp_negative(-(std::max(0.0f, dist_b[x]) + f));
@@ -593,48 +606,6 @@ bool evaluate_band(const Image& img, const FilterParams& fp, int y0, int y1, con
     return true;
 }
 
-// Band [y0, y1) of the weighted means (non-local means) of both halves,
-// into out[half][c]: the regression's cheaper relative for the first pass,
-// whose output only guides the second's weights.
-bool mean_band(const Image& img, const FilterParams& fp, int y0, int y1, const Run& run,
-               std::vector<float> (*out)[3]) {
-    const size_t w = size_t(img.width);
-    std::vector<float> weights[2];
-    if (!band_weights(img, fp, y0, y1, run, weights)) return false;
-    std::vector<float> sums[2][4];  // of one row
-    const int r = fp.window, side = 2 * r + 1;
-    const size_t plane = size_t(y1 - y0) * w;
-    for (int y = y0; y < y1; ++y) {
-        for (auto& half : sums)
-            for (auto& v : half) v.assign(w, 0.0f);
-        for (int dy = -r; dy <= r; ++dy) {
-            if (y + dy < 0 || y + dy >= img.height) continue;
-            for (int dx = -r; dx <= r; ++dx) {
-                const int x0 = std::max(0, -dx), count = std::min(img.width, img.width - dx) - x0;
-                const ptrdiff_t q = ptrdiff_t(y + dy) * img.width + dx + x0;
-                const size_t o = size_t((dy + r) * side + dx + r) * plane + size_t(y - y0) * w + size_t(x0);
-                for (int half = 0; half < 2; ++half) {
-                    const float* __restrict wt = weights[half].data() + o;
-                    for (int c = 0; c < 3; ++c) {
-                        const float* __restrict v = img.plane((half ? kB : kA) + c) + q;
-                        float* __restrict acc = sums[half][c].data() + x0;
-                        for (int x = 0; x < count; ++x) acc[x] += wt[x] * v[x];
-                    }
-                    float* __restrict acc = sums[half][3].data() + x0;
-                    for (int x = 0; x < count; ++x) acc[x] += wt[x];
-                }
-            }
-        }
-        for (int half = 0; half < 2; ++half)
-            for (int c = 0; c < 3; ++c)
-                for (size_t x = 0; x < w; ++x) {
-                    const float wsum = sums[half][3][x];
-                    out[half][c][size_t(y) * w + x] = wsum > 0.0f ? sums[half][c][x] / wsum : 0.0f;
-                }
-    }
-    return true;
-}
-
 // Runs band_work(y0, y1) over all bands in parallel; false once cancelled.
 template <class Work>
 bool for_each_band(const Image& img, Run& run, Work&& band_work) {
@@ -654,7 +625,7 @@ void allocate_halves(size_t size, std::vector<float> (*out)[3]) {
         for (int c = 0; c < 3; ++c) out[half][c].assign(size, 0.0f);
 }
 
-// One regression filter of both halves with weights from the guide planes,
+// One regression filter of both halves with weights from the other half,
 // into out[half][c] (demodulated). False when cancelled.
 bool regression_filter(const Image& img, const FilterParams& fp, Run& run, std::vector<float> (*out)[3]) {
     const size_t size = size_t(img.width) * size_t(img.height);
@@ -688,11 +659,6 @@ DenoiseResult combine(const Image& img, const std::vector<float>& fa, const std:
     r.error_estimate = mean > 0.0 ? std::sqrt(err2 / count) / mean : 0.0;
     if (!std::isfinite(r.error_estimate)) r.error_estimate = -1.0;
     return r;
-}
-
-// The guides of the next pass: the given halves (planes a..a+2, b..b+2).
-void set_guides(Image& img, const std::vector<float> (*halves)[3]) {
-    for (int c = 0; c < 3; ++c) img.planes[kGuideA + c] = halves[0][c], img.planes[kGuideB + c] = halves[1][c];
 }
 
 using Halves = std::vector<float>[2][3];
@@ -771,35 +737,26 @@ DenoiseResult denoise(const Film& film, const DenoiseOptions& options, const Den
         if (!read_pixel(sums, i, img)) return {};  // fewer than 2 passes: no halves to cross-filter
 
     Run run{options, progress};
-    run.steps = 5 * ((img.height + kBandRows - 1) / kBandRows);  // a mean, 2 regressions of 2 phases
+    run.steps = 4 * ((img.height + kBandRows - 1) / kBandRows);  // 2 regressions of 2 phases
     const FilterParams params{kColourK * std::max(0.0f, options.strength), std::max(0, options.window_radius),
                               std::max(0, options.patch_radius)};
-    Halves first, second, third, selected;
+    Halves large_patch, small_patch_out, selected;
     bool complete = false;
     tbb::task_arena arena(options.threads > 0 ? options.threads : tbb::task_arena::automatic);
     arena.execute([&] {
         const std::vector<uint8_t> features = suppress_outliers(img);
-        estimate_variances(img, kA, kB, kVarA, kVarB, true);
-        for (int c = 0; c < 3; ++c) {
-            img.planes[kGuideA + c] = img.planes[kA + c], img.planes[kGuideB + c] = img.planes[kB + c];
-            img.planes[kGuideVarA + c] = img.planes[kVarA + c], img.planes[kGuideVarB + c] = img.planes[kVarB + c];
-        }
-        // First pass: non-local means. Its output only guides the second
-        // pass's weights; there a regression first pass measured no better
-        // (docs/results/denoise.md) at 3x the cost.
-        allocate_halves(size, first);
-        if (!for_each_band(img, run, [&](int y0, int y1) { return mean_band(img, params, y0, y1, run, first); }))
-            return;
-        // Second pass: regressions of the raw halves, with weights from
-        // the first pass's output, whose patches are far less noisy; two
+        estimate_variances(img);
+        // Regressions of each half with weights from the other raw half; two
         // candidates (patches 7 x 7 and 3 x 3: the smaller follows finer
-        // detail, the larger averages more), selected per pixel.
-        set_guides(img, first);
-        estimate_variances(img, kGuideA, kGuideB, kGuideVarA, kGuideVarB, false);
+        // detail, the larger averages more), selected per pixel. The weights
+        // compare the raw halves, not a prefiltered guide: a non-local-means
+        // first pass as the guide measured worse at 128 x 128 (it made the
+        // weights too selective; docs/results/denoise.md) and cost 5 %.
         FilterParams small_patch = params;
         small_patch.patch = std::min(params.patch, 1);
-        complete = regression_filter(img, params, run, second) && regression_filter(img, small_patch, run, third);
-        if (complete) select_candidates(img, {&second, &third}, selected);
+        complete = regression_filter(img, params, run, large_patch) &&
+                   regression_filter(img, small_patch, run, small_patch_out);
+        if (complete) select_candidates(img, {&large_patch, &small_patch_out}, selected);
         keep_features(img, features, selected);
     });
     if (!complete || run.stopped() || (progress && !progress(1.0))) return {};
