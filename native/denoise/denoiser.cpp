@@ -1,8 +1,8 @@
-// Cross-filtered first-order regression (denoiser.h).
+// NLM-guided first-order regression (denoiser.h).
 //
 // Every filter runs over bands of rows in parallel (TBB). Per band it first
 // stores the weights of every (pixel, window offset) pair: for each offset,
-// the per-pixel colour distances of (p, p + d) in both halves, box filtered
+// the per-pixel colour distances of (p, p + d) in both guides, box filtered
 // over the patch (running sums: O(1) per pixel whatever the patch). Then it
 // runs row by row over all offsets, so that one row's normal equations stay
 // in cache. Each band writes only its own rows, so the result does not
@@ -48,6 +48,13 @@ constexpr float kNoHitLogDepth = 23.0f;
 // front of a parallel wall), which the colour patches see only once the
 // noise is below their difference.
 constexpr float kDepthSigma = 0.2f;
+// Window radius of the first pass (non-local means), whose output only
+// guides the regressions' weights: 3 x 3. Wider guides (7 x 7, the window
+// of the regressions) made the weights too selective at 128 x 128 (the
+// Cornell box at 16 spp 0.060 against 0.050, docs/results/denoise.md) and
+// cost more; no guide at all (the raw halves) lost small highlights (the
+// glass and many-lights scenes).
+constexpr int kGuideWindowRadius = 1;
 // Half side of the box over which the candidates' estimated errors are summed.
 constexpr int kSelectionRadius = 1;
 
@@ -63,7 +70,11 @@ enum Plane : int {
     kNormalVar = kNormal + 3,  // variance of the normal's mean, summed over channels
     kDepth,              // log of the mean depth of the samples that hit (kNoHitLogDepth if none)
     kValid,              // 1 where the pixel has samples, else 0
-    kPlaneCount
+    kGuideA,             // what the weights compare: the halves, then the first pass's output
+    kGuideB = kGuideA + 3,
+    kGuideVarA = kGuideB + 3,
+    kGuideVarB = kGuideVarA + 3,
+    kPlaneCount = kGuideVarB + 3
 };
 
 struct Image {
@@ -190,16 +201,18 @@ std::vector<uint8_t> suppress_outliers(Image& img) {
     return features;
 }
 
-// Each half's variance, from the squared difference of the halves averaged
-// over a small box (one pixel's is a single chi-square draw, far too noisy
-// to normalise distances by): Var[even mean] = E[(even - odd)^2] n_odd / n.
-void estimate_variances(Image& img) {
+// Each half's variance, from the squared difference of halves a and b
+// averaged over a small box (one pixel's is a single chi-square draw, far
+// too noisy to normalise distances by). For the film's halves, Var[even
+// mean] = E[(even - odd)^2] n_odd / n (by_counts); for two filtered halves
+// of equal variance, half the squared difference.
+void estimate_variances(Image& img, int a, int b, int var_a, int var_b, bool by_counts) {
     const int w = img.width, h = img.height;
     const size_t size = size_t(w) * size_t(h);
     std::vector<float> diff2(3 * size);
     for (int c = 0; c < 3; ++c)
         for (size_t i = 0; i < size; ++i) {
-            const float d = img.planes[kA + c][i] - img.planes[kB + c][i];
+            const float d = img.planes[a + c][i] - img.planes[b + c][i];
             diff2[size_t(c) * size + i] = d * d;  // 0 where invalid: both halves are 0 there
         }
     tbb::parallel_for(0, h, [&](int y) {
@@ -214,23 +227,24 @@ void estimate_variances(Image& img) {
                     count += img.planes[kValid][j];
                 }
             const float n = img.n_even[i] + img.n_odd[i];
+            const float scale_a = by_counts ? img.n_odd[i] / n : 0.5f, scale_b = by_counts ? img.n_even[i] / n : 0.5f;
             for (int c = 0; c < 3; ++c) {
-                img.planes[kVarA + c][i] = sum[c] / count * img.n_odd[i] / n;
-                img.planes[kVarB + c][i] = sum[c] / count * img.n_even[i] / n;
+                img.planes[var_a + c][i] = sum[c] / count * scale_a;
+                img.planes[var_b + c][i] = sum[c] / count * scale_b;
             }
         }
     });
 }
 
 // Scratch of one band and offset: per-pixel colour distances of rows
-// [y0 - f, y1 + f) in both halves and how many pairs were valid, their
+// [y0 - f, y1 + f) in both guides and how many pairs were valid, their
 // horizontal box sums, and the patch means of rows [y0, y1).
 struct PatchDistances {
     std::vector<float> raw_a, raw_b, raw_n, row_a, row_b, row_n, dist_a, dist_b;
 };
 
 // The colour distance of every pixel p of `row` to p + (dx, 0) of `row_q`
-// over x in [x0, x1), in half `g` (planes g..g+2, variances v..v+2).
+// over x in [x0, x1), in guide `g` (planes g..g+2, variances v..v+2).
 void row_colour_distances(const Image& img, size_t row, size_t row_q, int x0, int x1, int dx, int g, int v, float k2,
                           float* out) {
     float* o = out;
@@ -258,8 +272,8 @@ void patch_distances(const Image& img, int y0, int y1, int dx, int dy, int f, fl
         const int qy = y + dy;
         if (qy < 0 || qy >= h) continue;
         const size_t row = size_t(y) * size_t(w), row_q = size_t(qy) * size_t(w), base = size_t(y - r0) * size_t(w);
-        row_colour_distances(img, row, row_q, x0, x1, dx, kA, kVarA, k2, s.raw_a.data() + base);
-        row_colour_distances(img, row, row_q, x0, x1, dx, kB, kVarB, k2, s.raw_b.data() + base);
+        row_colour_distances(img, row, row_q, x0, x1, dx, kGuideA, kGuideVarA, k2, s.raw_a.data() + base);
+        row_colour_distances(img, row, row_q, x0, x1, dx, kGuideB, kGuideVarB, k2, s.raw_b.data() + base);
         for (int x = x0; x < x1; ++x) {
             const float both = valid[row + size_t(x)] * valid[row_q + size_t(x + dx)];
             s.raw_a[base + size_t(x)] *= both, s.raw_b[base + size_t(x)] *= both, s.raw_n[base + size_t(x)] = both;
@@ -606,6 +620,48 @@ bool evaluate_band(const Image& img, const FilterParams& fp, int y0, int y1, con
     return true;
 }
 
+// Band [y0, y1) of the weighted means (non-local means) of both halves,
+// into out[half][c]: the regression's cheaper relative for the first pass,
+// whose output only guides the second's weights.
+bool mean_band(const Image& img, const FilterParams& fp, int y0, int y1, const Run& run,
+               std::vector<float> (*out)[3]) {
+    const size_t w = size_t(img.width);
+    std::vector<float> weights[2];
+    if (!band_weights(img, fp, y0, y1, run, weights)) return false;
+    std::vector<float> sums[2][4];  // of one row
+    const int r = fp.window, side = 2 * r + 1;
+    const size_t plane = size_t(y1 - y0) * w;
+    for (int y = y0; y < y1; ++y) {
+        for (auto& half : sums)
+            for (auto& v : half) v.assign(w, 0.0f);
+        for (int dy = -r; dy <= r; ++dy) {
+            if (y + dy < 0 || y + dy >= img.height) continue;
+            for (int dx = -r; dx <= r; ++dx) {
+                const int x0 = std::max(0, -dx), count = std::min(img.width, img.width - dx) - x0;
+                const ptrdiff_t q = ptrdiff_t(y + dy) * img.width + dx + x0;
+                const size_t o = size_t((dy + r) * side + dx + r) * plane + size_t(y - y0) * w + size_t(x0);
+                for (int half = 0; half < 2; ++half) {
+                    const float* __restrict wt = weights[half].data() + o;
+                    for (int c = 0; c < 3; ++c) {
+                        const float* __restrict v = img.plane((half ? kB : kA) + c) + q;
+                        float* __restrict acc = sums[half][c].data() + x0;
+                        for (int x = 0; x < count; ++x) acc[x] += wt[x] * v[x];
+                    }
+                    float* __restrict acc = sums[half][3].data() + x0;
+                    for (int x = 0; x < count; ++x) acc[x] += wt[x];
+                }
+            }
+        }
+        for (int half = 0; half < 2; ++half)
+            for (int c = 0; c < 3; ++c)
+                for (size_t x = 0; x < w; ++x) {
+                    const float wsum = sums[half][3][x];
+                    out[half][c][size_t(y) * w + x] = wsum > 0.0f ? sums[half][c][x] / wsum : 0.0f;
+                }
+    }
+    return true;
+}
+
 // Runs band_work(y0, y1) over all bands in parallel; false once cancelled.
 template <class Work>
 bool for_each_band(const Image& img, Run& run, Work&& band_work) {
@@ -625,7 +681,7 @@ void allocate_halves(size_t size, std::vector<float> (*out)[3]) {
         for (int c = 0; c < 3; ++c) out[half][c].assign(size, 0.0f);
 }
 
-// One regression filter of both halves with weights from the other half,
+// One regression filter of both halves with weights from the guide planes,
 // into out[half][c] (demodulated). False when cancelled.
 bool regression_filter(const Image& img, const FilterParams& fp, Run& run, std::vector<float> (*out)[3]) {
     const size_t size = size_t(img.width) * size_t(img.height);
@@ -659,6 +715,11 @@ DenoiseResult combine(const Image& img, const std::vector<float>& fa, const std:
     r.error_estimate = mean > 0.0 ? std::sqrt(err2 / count) / mean : 0.0;
     if (!std::isfinite(r.error_estimate)) r.error_estimate = -1.0;
     return r;
+}
+
+// The guides of the next pass: the given halves (planes a..a+2, b..b+2).
+void set_guides(Image& img, const std::vector<float> (*halves)[3]) {
+    for (int c = 0; c < 3; ++c) img.planes[kGuideA + c] = halves[0][c], img.planes[kGuideB + c] = halves[1][c];
 }
 
 using Halves = std::vector<float>[2][3];
@@ -737,26 +798,37 @@ DenoiseResult denoise(const Film& film, const DenoiseOptions& options, const Den
         if (!read_pixel(sums, i, img)) return {};  // fewer than 2 passes: no halves to cross-filter
 
     Run run{options, progress};
-    run.steps = 4 * ((img.height + kBandRows - 1) / kBandRows);  // 2 regressions of 2 phases
+    run.steps = 5 * ((img.height + kBandRows - 1) / kBandRows);  // a mean, 2 regressions of 2 phases
     const FilterParams params{kColourK * std::max(0.0f, options.strength), std::max(0, options.window_radius),
                               std::max(0, options.patch_radius)};
-    Halves large_patch, small_patch_out, selected;
+    Halves first, second, third, selected;
     bool complete = false;
     tbb::task_arena arena(options.threads > 0 ? options.threads : tbb::task_arena::automatic);
     arena.execute([&] {
         const std::vector<uint8_t> features = suppress_outliers(img);
-        estimate_variances(img);
-        // Regressions of each half with weights from the other raw half; two
+        estimate_variances(img, kA, kB, kVarA, kVarB, true);
+        for (int c = 0; c < 3; ++c) {
+            img.planes[kGuideA + c] = img.planes[kA + c], img.planes[kGuideB + c] = img.planes[kB + c];
+            img.planes[kGuideVarA + c] = img.planes[kVarA + c], img.planes[kGuideVarB + c] = img.planes[kVarB + c];
+        }
+        // First pass: non-local means over a 3 x 3 window. Its output only
+        // guides the second pass's weights; there a regression first pass
+        // measured no better (docs/results/denoise.md) at 3x the cost.
+        allocate_halves(size, first);
+        FilterParams guide = params;
+        guide.window = std::min(params.window, kGuideWindowRadius);
+        if (!for_each_band(img, run, [&](int y0, int y1) { return mean_band(img, guide, y0, y1, run, first); }))
+            return;
+        // Second pass: regressions of the raw halves, with weights from
+        // the first pass's output, whose patches are far less noisy; two
         // candidates (patches 7 x 7 and 3 x 3: the smaller follows finer
-        // detail, the larger averages more), selected per pixel. The weights
-        // compare the raw halves, not a prefiltered guide: a non-local-means
-        // first pass as the guide measured worse at 128 x 128 (it made the
-        // weights too selective; docs/results/denoise.md) and cost 5 %.
+        // detail, the larger averages more), selected per pixel.
+        set_guides(img, first);
+        estimate_variances(img, kGuideA, kGuideB, kGuideVarA, kGuideVarB, false);
         FilterParams small_patch = params;
         small_patch.patch = std::min(params.patch, 1);
-        complete = regression_filter(img, params, run, large_patch) &&
-                   regression_filter(img, small_patch, run, small_patch_out);
-        if (complete) select_candidates(img, {&large_patch, &small_patch_out}, selected);
+        complete = regression_filter(img, params, run, second) && regression_filter(img, small_patch, run, third);
+        if (complete) select_candidates(img, {&second, &third}, selected);
         keep_features(img, features, selected);
     });
     if (!complete || run.stopped() || (progress && !progress(1.0))) return {};

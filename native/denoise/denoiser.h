@@ -14,12 +14,15 @@
 //      distance)), the colour and normal distances in units of their
 //      estimated variance (pixels that differ only by noise have distance
 //      ~0), the depth's as a relative difference over a tolerance.
-//   3. Per pixel, a weighted least-squares fit of the colour of
+//   3. First pass: non-local means (a weighted mean) over a 3 x 3 window.
+//      Its output guides the second pass's weights: its patches are less
+//      noisy than the raw halves'.
+//   4. Second pass: per pixel, a weighted least-squares fit of the colour of
 //      its window against 1, albedo, normal and screen offset; every pixel's
 //      output averages the fits of all windows containing it (collaborative).
 //      Two candidates (7 x 7 and 3 x 3 patches) are selected per pixel by
 //      their error estimated from the other half.
-//   4. Recombine the filtered halves as the film combines the raw ones, and
+//   5. Recombine the filtered halves as the film combines the raw ones, and
 //      estimate the result's error from their difference exactly as
 //      Film::relative_rmse_estimate() does for the raw image. That estimate
 //      sees the filter's remaining noise, not its bias (blur): it is a lower
