@@ -319,8 +319,7 @@ void patch_distances(const Image& img, int y0, int y1, int dx, int dy, int f, fl
 // windows on one side of a geometric edge; the log depths' squared
 // difference over kDepthSigma^2, on one side of a silhouette. (No albedo
 // term: the colour is demodulated and the regression fits against the
-// albedo.) Plain restrict
-// pointers, so that the loops vectorise.
+// albedo.) Plain restrict pointers, so that the loops vectorise.
 void row_weights(const Image& img, ptrdiff_t p, ptrdiff_t q, const float* __restrict dist_a,
                  const float* __restrict dist_b, int count, float* __restrict wa, float* __restrict wb) {
     constexpr float kNormal2 = kNormalSigma * kNormalSigma;
