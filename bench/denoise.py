@@ -8,6 +8,7 @@ render at 512 x 512.
 
     /usr/bin/python3 bench/denoise.py [--res 64] [--ref-spp 2048] [--out docs/results]
         [--cache /tmp/denoise_bench_cache] [--only LABEL] [--skip-blender] [--skip-timing]
+        [--sampler spt|cpt|icpt]
 
 The reference is two renders of --ref-spp samples with other seeds; a quarter
 of their squared difference estimates the reference's variance and is
@@ -18,6 +19,11 @@ Because heavy-tailed (firefly) noise makes the RMSE unstable, the median
 absolute error (over pixels where the reference is not black) is reported
 next to it, and the RMSE over an edge mask of the reference separately.
 Writes denoise.csv, denoise_crops.png and prints the markdown tables.
+
+--sampler sets the sampler of the noisy and denoised renders (default: each
+front end's own, SPT in the CLI and Auto = CPT for Blender's final renders);
+the references do not depend on it (every sampler is unbiased), so they are
+shared, while the noisy 256-spp render is cached per sampler.
 """
 import argparse
 import csv
@@ -54,34 +60,44 @@ def cli_render(scene, out, res, spp, seed, denoise=False, extra=()):
     return json.loads(subprocess.run(args, capture_output=True, text=True, check=True).stdout)
 
 
-def glb_images(scene, tmp, res, ref_spp, cache):
+def cached_names(res, ref_spp, sampler):
+    """Cache file per cached render: the references are shared by all samplers."""
+    n256 = f"n256_{res}_256" + (f"_{sampler}" if sampler else "")
+    return {"refa": (f"refa_{res}_{ref_spp}", ref_spp, 101), "refb": (f"refb_{res}_{ref_spp}", ref_spp, 202),
+            "n256": (n256, 256, 7)}
+
+
+def glb_images(scene, tmp, res, ref_spp, cache, sampler=""):
     """The references and the noisy 256-spp render do not depend on the
     denoiser: they are kept in `cache` and reused by later runs."""
     img = {}
-    for key, spp, seed in (("refa", ref_spp, 101), ("refb", ref_spp, 202), ("n256", 256, 7)):
-        path = cache / f"{key}_{res}_{spp}.exr"
+    extra = ("--sampler", sampler) if sampler else ()
+    for key, (name, spp, seed) in cached_names(res, ref_spp, sampler).items():
+        path = cache / f"{name}.exr"
         if not path.exists():
-            cli_render(scene, path, res, spp, seed)
+            cli_render(scene, path, res, spp, seed, extra=extra if key == "n256" else ())
         img[key] = read_rgb(path)
     img["noisy256"] = img.pop("n256")
     for spp in (16, 64):
-        cli_render(scene, tmp / f"n{spp}.exr", res, spp, 7)
+        cli_render(scene, tmp / f"n{spp}.exr", res, spp, 7, extra=extra)
         img[f"noisy{spp}"] = read_rgb(tmp / f"n{spp}.exr")
     for spp in (16, 64):
-        cli_render(scene, tmp / f"d{spp}.exr", res, spp, 7, denoise=True)
+        cli_render(scene, tmp / f"d{spp}.exr", res, spp, 7, denoise=True, extra=extra)
         img[f"denoised{spp}"] = read_rgb(tmp / f"d{spp}.exr")
     return img
 
 
-def blend_images(scene, tmp, res, ref_spp, cache):
+def blend_images(scene, tmp, res, ref_spp, cache, sampler=""):
     """Renders through Blender (tests/blender/denoise_renders.py) at the
     resolution percentage that gives about `res` pixels across; the
     references and noisy 256 spp are cached as in glb_images."""
     percent = max(1, round(100 * res / 512))
-    cached = {k: cache / f"{k}_{res}_{spp}.exr" for k, spp in (("refa", ref_spp), ("refb", ref_spp), ("n256", 256))}
-    specs = [f"{k}:{spp}:{seed}:0" for (k, spp, seed) in (("refa", ref_spp, 101), ("refb", ref_spp, 202),
-                                                          ("n256", 256, 7)) if not cached[k].exists()]
-    specs += ["d16:16:7:1", "d64:64:7:1"]
+    names = cached_names(res, ref_spp, sampler)
+    cached = {k: cache / f"{name}.exr" for k, (name, _, _) in names.items()}
+    # The references keep the scene's sampler (any is unbiased); the others take `sampler`.
+    specs = [f"{k}:{spp}:{seed}:0" + (f":1:{sampler}" if sampler and k == "n256" else "")
+             for k, (_, spp, seed) in names.items() if not cached[k].exists()]
+    specs += [f"d{spp}:{spp}:7:1" + (f":1:{sampler}" if sampler else "") for spp in (16, 64)]
     users = tmp / "user_scripts"
     (users / "addons").mkdir(parents=True, exist_ok=True)
     link = users / "addons" / "coherent"
@@ -176,6 +192,7 @@ def main():
     ap.add_argument("--skip-timing", action="store_true")
     ap.add_argument("--only", default="", help="only scenes whose label contains this")
     ap.add_argument("--cache", default="/tmp/denoise_bench_cache", help="references and noisy 256 spp, reused")
+    ap.add_argument("--sampler", default="", help="sampler of the noisy and denoised renders (default: the front end's)")
     args = ap.parse_args()
     out = Path(args.out)
     work = Path(tempfile.mkdtemp(prefix="denoise_bench_"))
@@ -195,7 +212,7 @@ def main():
         tmp, cache = work / key, Path(args.cache) / key
         tmp.mkdir(parents=True, exist_ok=True)
         cache.mkdir(parents=True, exist_ok=True)
-        img = render(path, tmp, args.res, args.ref_spp, cache)
+        img = render(path, tmp, args.res, args.ref_spp, cache, args.sampler)
         row, ref = errors(img)
         rows.append({"scene": label, **row})
         images[label.split(" (")[0]] = (img, ref)

@@ -37,6 +37,24 @@ constexpr float kAlbedoBias = 0.01f;
 // Half side of the box over which the noisy per-pixel variances are averaged.
 constexpr int kVarianceRadius = 2;
 constexpr int kBandRows = 8;
+// The log depth of a pixel no sample hit (the world): log(1e10), Cycles'
+// depth there, so that it never weighs with a surface.
+constexpr float kNoHitLogDepth = 23.0f;
+// Tolerance of the weights for log-depth differences: a neighbour 20 %
+// nearer or farther than the centre weighs exp(-1) x its colour and normal
+// weight. An object's silhouette over the surface behind it differs by far
+// more, while a floor seen at a grazing angle changes by a few % a pixel.
+// Depth separates surfaces that share normal and albedo (a box face in
+// front of a parallel wall), which the colour patches see only once the
+// noise is below their difference.
+constexpr float kDepthSigma = 0.2f;
+// Window radius of the first pass (non-local means), whose output only
+// guides the regressions' weights: 3 x 3. Wider guides (7 x 7, the window
+// of the regressions) made the weights too selective at 128 x 128 (the
+// Cornell box at 16 spp 0.060 against 0.050, docs/results/denoise.md) and
+// cost more; no guide at all (the raw halves) lost small highlights (the
+// glass and many-lights scenes).
+constexpr int kGuideWindowRadius = 1;
 // Half side of the box over which the candidates' estimated errors are summed.
 constexpr int kSelectionRadius = 1;
 
@@ -50,6 +68,7 @@ enum Plane : int {
     kAlbedo = kVarB + 3,
     kNormal = kAlbedo + 3,
     kNormalVar = kNormal + 3,  // variance of the normal's mean, summed over channels
+    kDepth,              // log of the mean depth of the samples that hit (kNoHitLogDepth if none)
     kValid,              // 1 where the pixel has samples, else 0
     kGuideA,             // what the weights compare: the halves, then the first pass's output
     kGuideB = kGuideA + 3,
@@ -116,6 +135,8 @@ bool read_pixel(const Film::Sums& s, size_t i, Image& img) {
         img.planes[kA + c][i] = even / (std::max(even_albedo, 0.0f) + kAlbedoBias);
         img.planes[kB + c][i] = odd / (std::max(odd_albedo, 0.0f) + kAlbedoBias);
     }
+    img.planes[kDepth][i] =
+        s.hits[i] ? std::log(std::max(s.depth[i] / float(s.hits[i]), 1e-6f)) : kNoHitLogDepth;
     if (s.albedo) {
         img.planes[kNormalVar][i] = feature_variance(s.normal + 3 * i, s.normal_odd + 3 * i, n, n_odd);
     }
@@ -295,9 +316,10 @@ void patch_distances(const Image& img, int y0, int y1, int dx, int dy, int f, fl
 // pointers advanced to the first pair: wa filters half a (guided by b's
 // distance), wb half b. Besides the colour patches, the normals: their
 // squared difference beyond their own noise, over a tolerance, keeps the
-// windows on one side of a geometric edge. (No albedo term: the colour is
-// demodulated and the regression fits against the albedo.) Plain restrict
-// pointers, so that the loops vectorise.
+// windows on one side of a geometric edge; the log depths' squared
+// difference over kDepthSigma^2, on one side of a silhouette. (No albedo
+// term: the colour is demodulated and the regression fits against the
+// albedo.) Plain restrict pointers, so that the loops vectorise.
 void row_weights(const Image& img, ptrdiff_t p, ptrdiff_t q, const float* __restrict dist_a,
                  const float* __restrict dist_b, int count, float* __restrict wa, float* __restrict wb) {
     constexpr float kNormal2 = kNormalSigma * kNormalSigma;
@@ -311,8 +333,12 @@ void row_weights(const Image& img, ptrdiff_t p, ptrdiff_t q, const float* __rest
     const float* __restrict vq = img.plane(kNormalVar) + q;
     const float* __restrict valid_p = img.plane(kValid) + p;
     const float* __restrict valid_q = img.plane(kValid) + q;
+    const float* __restrict dp = img.plane(kDepth) + p;
+    const float* __restrict dq = img.plane(kDepth) + q;
+    constexpr float kDepthScale = 1.0f / (kDepthSigma * kDepthSigma);
     for (int x = 0; x < count; ++x) {
-        const float v = vp[x] + vq[x], f = std::max(0.0f, wa[x] - v) / (kNormal2 + v);
+        const float v = vp[x] + vq[x];
+        const float f = std::max(0.0f, wa[x] - v) / (kNormal2 + v) + kDepthScale * (dp[x] - dq[x]) * (dp[x] - dq[x]);
         const float both = valid_p[x] * valid_q[x];
         wb[x] = both * exp_negative(-(std::max(0.0f, dist_a[x]) + f));
         wa[x] = both * exp_negative(-(std::max(0.0f, dist_b[x]) + f));
@@ -784,11 +810,13 @@ DenoiseResult denoise(const Film& film, const DenoiseOptions& options, const Den
             img.planes[kGuideA + c] = img.planes[kA + c], img.planes[kGuideB + c] = img.planes[kB + c];
             img.planes[kGuideVarA + c] = img.planes[kVarA + c], img.planes[kGuideVarB + c] = img.planes[kVarB + c];
         }
-        // First pass: non-local means. Its output only guides the second
-        // pass's weights; there a regression first pass measured no better
-        // (docs/results/denoise.md) at 3x the cost.
+        // First pass: non-local means over a 3 x 3 window. Its output only
+        // guides the second pass's weights; there a regression first pass
+        // measured no better (docs/results/denoise.md) at 3x the cost.
         allocate_halves(size, first);
-        if (!for_each_band(img, run, [&](int y0, int y1) { return mean_band(img, params, y0, y1, run, first); }))
+        FilterParams guide = params;
+        guide.window = std::min(params.window, kGuideWindowRadius);
+        if (!for_each_band(img, run, [&](int y0, int y1) { return mean_band(img, guide, y0, y1, run, first); }))
             return;
         // Second pass: regressions of the raw halves, with weights from
         // the first pass's output, whose patches are far less noisy; two

@@ -4,18 +4,19 @@
 // dual-buffer non-local-means weights (Rousselle, Manzi and Zwicker 2012).
 //
 // Inputs are the film's two half-buffers (the even and the odd sample
-// passes, independent by construction, film.h) and its feature buffers
-// (Denoising Albedo and Normal, denoising_features.h):
+// passes, independent by construction, film.h), its feature buffers
+// (Denoising Albedo and Normal, denoising_features.h) and its depth:
 //   1. Demodulate: each half's mean radiance is divided by its own albedo,
 //      so textures are never blurred (they come back with the albedo).
 //   2. Cross-filter: each half is filtered with weights computed from the
 //      OTHER half, so the weights are independent of the noise they average.
-//      A weight is exp(-(colour patch distance + normal distance)), the
-//      distances in units of the guides' estimated variance (pixels that
-//      differ only by noise have distance ~0).
-//   3. First pass: non-local means (a weighted mean). Its output guides the
-//      second pass's weights: its patches are far less noisy than the raw
-//      halves'.
+//      A weight is exp(-(colour patch distance + normal distance + depth
+//      distance)), the colour and normal distances in units of their
+//      estimated variance (pixels that differ only by noise have distance
+//      ~0), the depth's as a relative difference over a tolerance.
+//   3. First pass: non-local means (a weighted mean) over a 3 x 3 window.
+//      Its output guides the second pass's weights: its patches are less
+//      noisy than the raw halves'.
 //   4. Second pass: per pixel, a weighted least-squares fit of the colour of
 //      its window against 1, albedo, normal and screen offset; every pixel's
 //      output averages the fits of all windows containing it (collaborative).

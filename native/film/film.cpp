@@ -211,7 +211,9 @@ Film::Sums Film::sums() const {
             f ? albedo_.data() : nullptr,
             f ? albedo_odd_.data() : nullptr,
             f ? dnormal_.data() : nullptr,
-            f ? dnormal_odd_.data() : nullptr};
+            f ? dnormal_odd_.data() : nullptr,
+            depth_.data(),
+            hits_.data()};
 }
 
 void Film::set_denoised(std::vector<float> rgb) {

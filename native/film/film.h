@@ -117,7 +117,8 @@ public:
 
     // The accumulation buffers as the denoiser reads them: per pixel i,
     // sums over all samples and over the odd passes' samples (rgba: 4 floats
-    // a pixel, the others 3; albedo/normal null without features).
+    // a pixel, the others 3; albedo/normal null without features); depth:
+    // the sum of the first hits' depths over the `hits` samples that hit.
     struct Sums {
         const float* rgba;
         const float* rgb_odd;
@@ -127,6 +128,8 @@ public:
         const float* albedo_odd;
         const float* normal;
         const float* normal_odd;
+        const float* depth;
+        const uint32_t* hits;
     };
     Sums sums() const;
 

@@ -1,7 +1,8 @@
 # Renders one .blend several times in one Blender process (one start-up for
 # all of them), for test_denoising.py and bench/denoise.py:
 #   blender -b SCENE.blend --addons coherent --python denoise_renders.py -- OUT_DIR PERCENT SPEC...
-# where each SPEC is "name:samples:seed:denoise[:strength]" (denoise 0 or 1); writes
+# where each SPEC is "name:samples:seed:denoise[:strength[:sampler]]" (denoise 0 or 1,
+# sampler as the CLI names it: spt, cpt, icpt; default the scene's); writes
 # OUT_DIR/name.exr (multilayer: Combined, and with denoise Noisy Image and
 # the Denoising Albedo/Normal passes). Exits non-zero on any failure.
 import sys
@@ -17,9 +18,11 @@ def main(argv):
     scene.render.resolution_percentage = percent
     scene.render.image_settings.file_format = "OPEN_EXR_MULTILAYER"
     for spec in specs:
-        name, samples, seed, denoise, *strength = spec.split(":")
-        if strength:
-            scene.coherent.denoising_strength = float(strength[0])
+        name, samples, seed, denoise, *options = spec.split(":")
+        if options:
+            scene.coherent.denoising_strength = float(options[0])
+        if len(options) > 1:
+            scene.coherent.sampler = options[1].upper()
         scene.coherent.samples = int(samples)
         scene.coherent.seed = int(seed)
         scene.coherent.use_denoising = denoise == "1"
