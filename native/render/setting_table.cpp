@@ -114,7 +114,8 @@ std::vector<SettingSpec> sampling_rows() {
                                               "randomised Latin-hypercube subsets that share sequences; hides CPT's "
                                               "structured noise"}},
          {SamplerType::Auto, {"auto", "Auto", "ICPT in the viewport, CPT for final renders (the least error "
-                                              "per second there)"}}},
+                                              "per second there), SPT when denoising (independent pixel "
+                                              "noise filters best)"}}},
         "how the random numbers of paths are shared between pixels"));
     SettingSpec packet = row("packet", "Packet Size", "Sampling", SettingType::Size,
                              "ray packet size in pixels (width, height); ICPT uses square blocks of the shorter "

@@ -77,7 +77,8 @@ struct RenderSettings {
     // Which random numbers paths consume (native/sample): SPT, CPT, ICPT, or
     // Auto, resolved by resolve_sampler_type() (sample/sampler_type.h): ICPT
     // when intermediate results are displayed (progressive_display, set by
-    // the viewport), CPT for final renders, the most efficient there.
+    // the viewport), CPT for final renders, the most efficient there, SPT
+    // when denoising (the filter wants independent pixel noise).
     // Spt by default: independent pixel errors, as before.
     SamplerType sampler = SamplerType::Spt;
     // Packet size in pixels; ICPT partitions square blocks of side
@@ -142,7 +143,7 @@ struct RenderSettings {
     int tile_size = 32;
 
     int border_width() const { return (border_x1 < 0 ? width : border_x1) - border_x0; }
-    SamplerType resolved_sampler() const { return resolve_sampler_type(sampler, progressive_display); }
+    SamplerType resolved_sampler() const { return resolve_sampler_type(sampler, progressive_display, denoise); }
     Traversal resolved_traversal() const { return resolve_traversal(traversal, resolved_sampler()); }
     int border_height() const { return (border_y1 < 0 ? height : border_y1) - border_y0; }
 };

@@ -24,7 +24,10 @@ import pytest
 import blender_helpers as bh
 
 PERCENT = 10
-RENDERS = ["refa:512:101:0", "refb:512:202:0", "n16:16:7:0", "d16:16:7:1", "d64:64:7:1", "n256:256:7:0"]
+# All with SPT: the sampler Auto picks when denoising (sample/sampler_type.h),
+# so the noisy renders are the denoised ones' inputs, seed for seed.
+RENDERS = [f"{spec}:1:spt" for spec in
+           ("refa:512:101:0", "refb:512:202:0", "n16:16:7:0", "d16:16:7:1", "d64:64:7:1", "n256:256:7:0")]
 
 
 def rgb(path, pass_name="Combined"):

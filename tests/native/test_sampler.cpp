@@ -281,6 +281,10 @@ TEST(Sampler, AutoIsIcptWhenDisplayedAndCptForFinalRenders) {
     // second for final renders; ICPT hides structured noise while passes show.
     EXPECT_EQ(resolve_sampler_type(SamplerType::Auto, true), SamplerType::Icpt);
     EXPECT_EQ(resolve_sampler_type(SamplerType::Auto, false), SamplerType::Cpt);
+    // Denoising wants noise independent per pixel (docs/results/denoise.md).
+    EXPECT_EQ(resolve_sampler_type(SamplerType::Auto, false, true), SamplerType::Spt);
+    EXPECT_EQ(resolve_sampler_type(SamplerType::Auto, true, true), SamplerType::Spt);
+    EXPECT_EQ(resolve_sampler_type(SamplerType::Cpt, false, true), SamplerType::Cpt);
     for (SamplerType t : {SamplerType::Spt, SamplerType::Cpt, SamplerType::Icpt}) {
         EXPECT_EQ(resolve_sampler_type(t, true), t);
         EXPECT_EQ(resolve_sampler_type(t, false), t);
