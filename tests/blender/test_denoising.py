@@ -4,8 +4,10 @@
 # scene is rendered in one Blender process (denoise_renders.py).
 #
 # The reference's own variance, a quarter of its halves' squared difference,
-# is subtracted from each measured mean squared error. What holds, measured
-# (docs/results/denoise.md), is asserted:
+# is subtracted from each measured mean squared error. Every render uses SPT,
+# which Auto picks when denoising. What holds is asserted; the ratios quoted
+# below were measured with each scene's default sampler (CPT) before that
+# rule, and SPT's noise filters better (docs/results/denoise.md):
 # - cornell_box.blend (diffuse, area light): the denoised image has about
 #   half the RMSE of the noisy one at 16 and 64 spp, edges included; it does
 #   not reach 256 spp (the filter is a non-local means one: it keeps the
