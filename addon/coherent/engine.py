@@ -25,7 +25,7 @@ import traceback
 import bpy
 import numpy as np
 
-from . import export, motion, persistent, viewport
+from . import export, motion, object_settings, persistent, viewport
 
 # Seconds between progressive updates of the displayed image.
 PREVIEW_INTERVAL = 0.5
@@ -138,31 +138,14 @@ def stamp_cryptomatte(result, nscene, view_layer, native):
         result.stamp_data_add_field(f"{key}/manifest", native.Scene.cryptomatte_manifest(names))
 
 
-def set_shadow_terminator(nscene):
-    """Cycles' Object > Shading > Shadow Terminator > Geometry Offset, for
-    objects that change it from Cycles' default (an instance "parent/object"
-    takes its object's)."""
-    objects = bpy.data.objects
-    offsets = {}
-    for name in nscene.object_names:
-        ob = objects.get(name) or objects.get(name.rsplit("/", 1)[-1])
-        settings = getattr(ob, "cycles", None) if ob is not None else None
-        offset = getattr(settings, "shadow_terminator_geometry_offset", None)
-        if offset is not None and abs(offset - 0.1) > 1e-7:
-            offsets[name] = min(max(float(offset), 0.0), 1.0)
-    if offsets:
-        nscene.set_shadow_terminator(offsets)
-
-
 def set_data_pass_inputs(nscene, bscene):
     """What the data passes read: pass_index of objects (by exported name;
     an instance "parent/object" takes its object's) and materials (by name),
     and the World's mist and AO distance. Per object and material, never per
     vertex."""
-    objects = bpy.data.objects
     object_index = {}
     for name in nscene.object_names:
-        ob = objects.get(name) or objects.get(name.rsplit("/", 1)[-1])
+        ob = object_settings.blender_object(name)
         if ob is not None and ob.pass_index:
             object_index[name] = float(ob.pass_index)
     material_index = []
@@ -462,7 +445,7 @@ class CoherentRenderEngine(bpy.types.RenderEngine):
         passes, cryptomatte = enabled_passes(view_layer), cryptomatte_types(view_layer)
         if passes or cryptomatte:
             set_data_pass_inputs(nscene, scene)
-        set_shadow_terminator(nscene)
+        object_settings.set_shadow_terminator(nscene)
         if cameras is not None:
             nscene.set_camera_frames(*cameras)
         kwargs = props.renderer_kwargs(scene)

@@ -31,7 +31,7 @@ import sys
 
 import bpy
 
-from . import export, materials, scene_reuse
+from . import export, materials, object_settings, scene_reuse
 
 
 class SceneSync:
@@ -92,6 +92,7 @@ class SceneSync:
             geometry, lights = export.scan_instances(depsgraph)
         exporter = export.SceneExporter(native, depsgraph, 1, 1, need_camera=False, mesh_cache=self.mesh_cache)
         result = exporter.export()
+        object_settings.set_shadow_terminator(result.scene)
         self.mesh_cache.retain(exporter.used_keys)
         for warning in result.warnings:
             print(f"Coherent warning: {warning}", file=sys.stderr)
