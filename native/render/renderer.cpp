@@ -1,10 +1,12 @@
-// The Renderer: pass-by-pass progressive rendering over tiles with TBB.
+// The Renderer: pass-by-pass progressive rendering over tiles with TBB, in
+// batches of passes between progress reports (TileQueue, batch_size).
 //
 // Determinism: every random number is keyed by (full-frame pixel, sample,
-// dimension), every pixel belongs to exactly one tile, and passes run one
-// after another, so the film is bit-identical for any thread count.
-// Statistics are accumulated per thread (enumerable_thread_specific) and
-// merged after each pass: no atomics in the per-ray path.
+// dimension), every pixel belongs to exactly one tile, and a tile's passes
+// run one after another, so the film is bit-identical for any thread count
+// and batch size. Statistics are accumulated per thread
+// (enumerable_thread_specific) and merged after each batch: no atomics in
+// the per-ray path.
 #include "renderer.h"
 
 #include "setting_table.h"
@@ -408,7 +410,7 @@ TileJob pass_job(const PathContext& ctx, const ImageSampler& sampler, Film& film
     job.film = &film;
     job.border_x0 = rs.border_x0;
     job.border_y0 = rs.border_y0;
-    job.sample = 0;
+    job.sample = 0;  // render_batch sets each pass's
     job.cancelled = &cancelled;
     job.converged = converged.empty() ? nullptr : converged.data();
     job.film_width = rs.border_width();
@@ -447,16 +449,18 @@ public:
     TileQueue(int tiles, int count)
         : next_(size_t(tiles)), busy_(size_t(tiles)), count_(count), run_(std::max(1, (count + 3) / 4)) {}
 
-    // Claims a run of the idle tile that is furthest behind (ties: from a
-    // rotating start, so threads spread out): passes [pass, pass + n) of the
-    // batch. False when every tile is done or busy, as the threads holding
-    // the busy ones finish them.
+    // Claims a run of the idle tile furthest behind among the next kWindow
+    // tiles from a rotating start (threads spread out, and a claim costs the
+    // same at any image size), or further on if none there is idle with work
+    // left: passes [pass, pass + n) of the batch. False when every tile is
+    // done or busy, as the threads holding the busy ones finish them.
     bool claim(int& tile, int& pass, int& n) {
+        constexpr int kWindow = 64;
         const int tiles = int(next_.size());
         const int start = int(cursor_.fetch_add(1, std::memory_order_relaxed) % uint32_t(tiles));
         for (;;) {
             int best = -1, best_pass = count_;
-            for (int i = 0; i < tiles; ++i) {
+            for (int i = 0; i < tiles && (i < kWindow || best < 0); ++i) {
                 const int t = (start + i) % tiles;
                 const int p = next_[size_t(t)].load(std::memory_order_relaxed);
                 if (p < best_pass && !busy_[size_t(t)].load(std::memory_order_relaxed)) best = t, best_pass = p;
@@ -608,7 +612,7 @@ bool Renderer::stop_after_pass(int passes_done, int spp) {
     // Adaptive sampling decides only at even pass counts, where every
     // unconverged pixel holds as many even as odd samples; the first time
     // at adaptive_min_samples rounded up to even.
-    const int adaptive_min = std::max(2, settings_.adaptive_min_samples + (settings_.adaptive_min_samples & 1));
+    const int adaptive_min = first_adaptive_decision();
     if (settings_.adaptive && passes_done >= adaptive_min && passes_done % 2 == 0 && passes_done < spp) {
         stats_.converged_pixels = update_convergence();
         if (stats_.converged_pixels == stats_.pixels) return true;  // nothing left to sample
@@ -623,6 +627,10 @@ bool Renderer::stop_after_pass(int passes_done, int spp) {
     return settings_.time_limit > 0.0 && stats_.seconds >= settings_.time_limit;
 }
 
+int Renderer::first_adaptive_decision() const {
+    return std::max(2, settings_.adaptive_min_samples + (settings_.adaptive_min_samples & 1));
+}
+
 int Renderer::batch_size(int done, int spp, double seconds_per_pass, double elapsed) const {
     const int left = spp - done;
     // The first two passes alone: the traversal trial times them, and the
@@ -634,7 +642,7 @@ int Renderer::batch_size(int done, int spp, double seconds_per_pass, double elap
     // stopping decisions keep coming at a steady rate in log(spp).
     count = std::min(count, std::max(2, done / 2));
     if (settings_.adaptive) {
-        const int first_decision = settings_.adaptive_min_samples + (settings_.adaptive_min_samples & 1);
+        const int first_decision = first_adaptive_decision();
         count = std::min(count, done < first_decision ? first_decision - done : std::max(2, done / 4));
     }
     // Not far past the error target: at error ~ 1/sqrt(passes) it needs

@@ -102,6 +102,9 @@ private:
     // passes done, the seconds one took in the last batch, and the seconds
     // since the render started.
     int batch_size(int done, int spp, double seconds_per_pass, double elapsed) const;
+    // The pass count of adaptive sampling's first decision: adaptive_min_samples
+    // rounded up to even, at least 2.
+    int first_adaptive_decision() const;
     // Denoises the film (settings.denoise); report(fraction) returns false to cancel.
     void denoise_film(const std::function<bool(double)>& report);
     std::atomic<bool> cancelled_{false};
