@@ -22,6 +22,8 @@
 // of its triangle that lies in the reference's region.
 #include "bvh_build_spatial.h"
 
+#include "box4.h"
+
 #include <algorithm>
 #include <cmath>
 #include <cstring>
@@ -158,10 +160,21 @@ struct SpatialPlanes {
     }
 };
 
+// Only bins [0, nbins) of each axis are initialised: most nodes are small,
+// and clearing all kMaxObjectBins for them cost more than binning them.
 struct ObjectBins {
-    BBox box[3][kMaxObjectBins];
-    uint32_t count[3][kMaxObjectBins] = {};
-    void merge(const ObjectBins& o, int nbins) {
+    int nbins;
+    Box4 box[3][kMaxObjectBins];
+    uint32_t count[3][kMaxObjectBins];
+
+    explicit ObjectBins(int bins) : nbins(bins) {
+        for (int a = 0; a < 3; ++a)
+            for (int i = 0; i < nbins; ++i) {
+                box[a][i] = Box4::empty();
+                count[a][i] = 0;
+            }
+    }
+    void merge(const ObjectBins& o) {
         for (int a = 0; a < 3; ++a)
             for (int i = 0; i < nbins; ++i) {
                 box[a][i].expand(o.box[a][i]);
@@ -182,18 +195,19 @@ struct SpatialBins {
     }
 };
 
-// Binning over [0, n): in parallel above kParallelBinningSize. The merges are
-// exact (min, max, integer sums), so the result does not depend on the split
-// of the range.
+// Binning over [0, n) into `bins` (which holds empty bins on entry): in
+// parallel above kParallelBinningSize. The merges are exact (min, max,
+// integer sums), so the result does not depend on the split of the range.
+// Bins are several kilobytes: the serial path, taken by almost every node,
+// bins in place rather than copy them.
 template <class Bins, class BinRange, class Merge>
-Bins reduce_bins(size_t n, BinRange bin_range, Merge merge) {
+void reduce_bins(size_t n, Bins& bins, BinRange bin_range, Merge merge) {
     if (n < kParallelBinningSize) {
-        Bins bins;
         bin_range(bins, 0, n);
-        return bins;
+        return;
     }
-    return tbb::parallel_reduce(
-        tbb::blocked_range<size_t>(0, n, kGrainSize), Bins{},
+    bins = tbb::parallel_reduce(
+        tbb::blocked_range<size_t>(0, n, kGrainSize), bins,
         [&](const tbb::blocked_range<size_t>& r, Bins acc) {
             bin_range(acc, r.begin(), r.end());
             return acc;
@@ -209,6 +223,7 @@ struct Candidate {
     int bin = 0;  // object: left holds bins [0, bin]; spatial: the plane is planes[bin + 1]
     float cost = kInf;  // sum over children of area x SAH blocks
     BBox lbox, rbox;
+    size_t lcount = 0;  // object splits: references on the left
 };
 
 class SpatialBuilder {
@@ -224,11 +239,13 @@ public:
     // Consumes `refs`.
     std::unique_ptr<BuildNode> build(std::vector<Ref>& refs, size_t budget, int depth) {
         auto node = std::make_unique<BuildNode>();
-        BBox box, cbox;
+        Box4 box4 = Box4::empty(), cbox4 = Box4::empty();
         for (const Ref& r : refs) {
-            box.expand(r.box);
-            cbox.expand(r.box.center());
+            const Box4 b = Box4::load(r.box);
+            box4.expand(b);
+            cbox4.expand_point(b.center());
         }
+        const BBox box = box4.to_bbox(), cbox = cbox4.to_bbox();
         node->box = box;
         const size_t n = refs.size();
         if (n <= 1) return make_leaf(std::move(node), refs);
@@ -271,6 +288,8 @@ public:
         }
         if (!done && object.axis >= 0) {
             const BinMapping map(cbox, bins_);
+            left.reserve(object.lcount);
+            right.reserve(n - object.lcount);
             for (const Ref& r : refs) (map.index(r.box.center(), object.axis) <= object.bin ? left : right).push_back(r);
             done = !left.empty() && !right.empty();
             if (!done) {
@@ -322,17 +341,17 @@ private:
         return node;
     }
 
-    // Sweeps `count` bins with boxes `box`; left counts come from `lcount`,
-    // right counts from `rcount` (the same array for object splits).
-    template <class LeftCount, class RightCount>
-    void sweep(const BBox* box, int nbins, LeftCount lcount_of, RightCount rcount_of, int axis, size_t n,
+    // Sweeps `nbins` bins whose boxes box_of(i) gives; left counts come from
+    // lcount_of, right counts from rcount_of (the same for object splits).
+    template <class BoxOf, class LeftCount, class RightCount>
+    void sweep(BoxOf box_of, int nbins, LeftCount lcount_of, RightCount rcount_of, int axis, size_t n,
                bool spatial, Candidate& best) const {
         float rarea[kMaxObjectBins];
         size_t rcount[kMaxObjectBins];
         BBox racc;
         size_t rc = 0;
         for (int i = nbins - 1; i > 0; --i) {
-            racc.expand(box[i]);
+            racc.expand(box_of(i));
             rc += rcount_of(i);
             rarea[i - 1] = racc.half_area();
             rcount[i - 1] = rc;
@@ -340,7 +359,7 @@ private:
         BBox lacc;
         size_t lc = 0;
         for (int i = 0; i < nbins - 1; ++i) {
-            lacc.expand(box[i]);
+            lacc.expand(box_of(i));
             lc += lcount_of(i);
             if (lc == 0 || rcount[i] == 0) continue;
             if (spatial && (lc >= n || rcount[i] >= n)) continue;  // each side must shrink
@@ -357,26 +376,33 @@ private:
         Candidate best;
         const BinMapping map(cbox, bins_);
         if (map.scale[0] == 0.0f && map.scale[1] == 0.0f && map.scale[2] == 0.0f) return best;
-        const ObjectBins bins = reduce_bins<ObjectBins>(
-            refs.size(),
+        const BinIndex4 index(map.lo, map.scale, bins_);
+        ObjectBins bins(bins_);
+        reduce_bins(
+            refs.size(), bins,
             [&](ObjectBins& b, size_t begin, size_t end) {
                 for (size_t i = begin; i < end; ++i) {
-                    const Vec3f c = refs[i].box.center();
+                    const Box4 r = Box4::load(refs[i].box);
+                    int32_t k[4];
+                    index.bins(r.center(), k);
                     for (int a = 0; a < 3; ++a) {
-                        const int k = map.index(c, a);
-                        b.box[a][k].expand(refs[i].box);
-                        ++b.count[a][k];
+                        b.box[a][k[a]].expand(r);
+                        ++b.count[a][k[a]];
                     }
                 }
             },
-            [&](ObjectBins& a, const ObjectBins& b) { a.merge(b, bins_); });
+            [](ObjectBins& a, const ObjectBins& b) { a.merge(b); });
         for (int a = 0; a < 3; ++a) {
             if (map.scale[a] == 0.0f) continue;
+            auto box = [&](int i) { return bins.box[a][i].to_bbox(); };
             auto count = [&](int i) { return static_cast<size_t>(bins.count[a][i]); };
-            sweep(bins.box[a], bins_, count, count, a, refs.size(), false, best);
+            sweep(box, bins_, count, count, a, refs.size(), false, best);
         }
         if (best.axis >= 0)
-            for (int i = 0; i < bins_; ++i) (i <= best.bin ? best.lbox : best.rbox).expand(bins.box[best.axis][i]);
+            for (int i = 0; i < bins_; ++i) {
+                (i <= best.bin ? best.lbox : best.rbox).expand(bins.box[best.axis][i].to_bbox());
+                if (i <= best.bin) best.lcount += bins.count[best.axis][i];
+            }
         return best;
     }
 
@@ -387,8 +413,9 @@ private:
         for (int a = 0; a < 3; ++a) {
             const SpatialPlanes planes(box.lo[a], box.hi[a]);
             if (!planes.usable()) continue;
-            const SpatialBins bins = reduce_bins<SpatialBins>(
-                refs.size(),
+            SpatialBins bins;
+            reduce_bins(
+                refs.size(), bins,
                 [&](SpatialBins& b, size_t begin, size_t end) {
                     for (size_t i = begin; i < end; ++i) {
                         const Ref& r = refs[i];
@@ -408,7 +435,7 @@ private:
                 },
                 [](SpatialBins& x, const SpatialBins& y) { x.merge(y); });
             Candidate c;
-            sweep(bins.box, kSpatialBins, [&](int i) { return static_cast<size_t>(bins.enter[i]); },
+            sweep([&](int i) { return bins.box[i]; }, kSpatialBins, [&](int i) { return static_cast<size_t>(bins.enter[i]); },
                   [&](int i) { return static_cast<size_t>(bins.exit[i]); }, a, refs.size(), true, c);
             if (c.axis < 0 || c.cost >= best.cost) continue;
             // Extra references this plane would create (the straddlers).

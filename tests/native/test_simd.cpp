@@ -12,6 +12,7 @@
 #include <random>
 #include <vector>
 
+#include "accel/box4.h"
 #include "core/float_bounds.h"
 #include "core/simd.h"
 
@@ -201,4 +202,56 @@ TEST(FloatBounds, SharedConstantsKeepTheirValues) {
     EXPECT_EQ(kCullSlack, 0x1p-12f);
     // gamma(n) bounds n roundings: (1 + eps)^n - 1 <= gamma(n) in exact arithmetic.
     for (int n = 1; n <= 8; ++n) EXPECT_LE(std::pow(1.0L + 0x1p-24L, n) - 1.0L, (long double)gamma_bound(n)) << n;
+}
+
+// The builders bin with Box4 (accel/box4.h) where they used BBox: expand,
+// centre and bin index must give the scalar code's bits, signed zeros and
+// infinities included, or trees (and images) would change with the switch.
+TEST(Box4, MatchesScalarBBoxBitForBit) {
+    const std::vector<float> v = test_values(64, 17);
+    std::vector<BBox> boxes;
+    for (size_t i = 0; i + 5 < v.size(); i += 6) {
+        BBox b;
+        b.lo = {v[i], v[i + 1], v[i + 2]};
+        b.hi = {v[i + 3], v[i + 4], v[i + 5]};
+        if (!is_finite(b.lo) || !is_finite(b.hi)) continue;  // builders only see finite boxes
+        boxes.push_back(b);
+    }
+    ASSERT_GT(boxes.size(), 40u);
+    const Vec3f map_lo{-3.0f, -0.0f, 0.0f}, map_scale{16.0f / 7.0f, 0.0f, 1e30f};
+    const BinIndex4 index(map_lo, map_scale, 16);
+    BBox acc;
+    Box4 acc4 = Box4::empty();
+    for (const BBox& b : boxes) {
+        const Box4 b4 = Box4::load(b);
+        const BBox back = b4.to_bbox();
+        for (int a = 0; a < 3; ++a) {
+            EXPECT_EQ(bits(back.lo[a]), bits(b.lo[a]));
+            EXPECT_EQ(bits(back.hi[a]), bits(b.hi[a]));
+        }
+        acc.expand(b);
+        acc4.expand(b4);
+        const BBox got = acc4.to_bbox();
+        alignas(16) float c4[4];
+        store(c4, b4.center());
+        int32_t bin[4];
+        index.bins(b4.center(), bin);
+        const Vec3f c = b.center();
+        for (int a = 0; a < 3; ++a) {
+            EXPECT_EQ(bits(got.lo[a]), bits(acc.lo[a])) << "lo axis " << a;
+            EXPECT_EQ(bits(got.hi[a]), bits(acc.hi[a])) << "hi axis " << a;
+            EXPECT_EQ(bits(c4[a]), bits(c[a])) << "centre axis " << a;
+            const int scalar = std::clamp(static_cast<int>((c[a] - map_lo[a]) * map_scale[a]), 0, 15);
+            if (std::fabs((c[a] - map_lo[a]) * map_scale[a]) < 2e9f)  // static_cast is defined there
+                EXPECT_EQ(bin[a], scalar) << "bin axis " << a << " centre " << c[a];
+            else
+                EXPECT_TRUE(bin[a] == 0 || bin[a] == 15);
+        }
+    }
+    // A point expansion with signed zeros keeps the first zero, as std::min does.
+    Box4 z = Box4::empty();
+    z.expand_point(vfloat4(0.0f));
+    z.expand_point(vfloat4(-0.0f));
+    EXPECT_EQ(bits(z.to_bbox().lo.x), bits(0.0f));
+    EXPECT_EQ(bits(z.to_bbox().hi.x), bits(0.0f));
 }
