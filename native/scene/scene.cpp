@@ -131,6 +131,14 @@ void append_motion_corners(Scene& scene, const MeshInput& mesh, const WorldVerti
     }
 }
 
+// Capacity for `extra` more elements, growing geometrically so that many
+// small meshes added one by one still cost amortised constant time each.
+template <class T>
+void reserve_more(std::vector<T>& v, size_t extra) {
+    const size_t needed = v.size() + extra;
+    if (needed > v.capacity()) v.reserve(std::max(needed, 2 * v.capacity()));
+}
+
 // Books a mesh's drops into scene.dropped and, if any triangle was added,
 // the mesh as an object of the scene; returns the triangles added.
 size_t record_mesh(Scene& scene, const std::string& name, size_t triangles, size_t added, const MeshDrops& drops) {
@@ -200,6 +208,18 @@ size_t Scene::add_mesh(const MeshInput& mesh) {
         motion_normals = normals;
     }
     const bool track_motion = mesh.moves || !motion_vertices.empty();
+
+    // Room for every triangle up front: a large mesh otherwise regrows
+    // (copies and faults in) these arrays a dozen times.
+    const size_t corners = 3 * mesh.triangle_count;
+    reserve_more(vertices, corners);
+    reserve_more(normals, corners);
+    reserve_more(has_normals, mesh.triangle_count);
+    reserve_more(material_of, mesh.triangle_count);
+    if (track_motion) {
+        reserve_more(motion_vertices, corners);
+        reserve_more(motion_normals, corners);
+    }
 
     MeshDrops drops;
     size_t added = 0;
