@@ -240,7 +240,8 @@ def _texture_summary(scene):
 
 
 def _format_error(estimate):
-    """The relative RMSE estimate as a percentage, or "n/a" before 2 passes."""
+    """The relative RMSE estimate as a percentage, or "n/a" before 2 passes
+    and when not estimated (Sampling > Error Estimate: Auto)."""
     return "n/a" if estimate is None else f"{100.0 * estimate:.1f} %"
 
 
@@ -489,7 +490,10 @@ class CoherentRenderEngine(bpy.types.RenderEngine):
               f"export {exported.seconds:.2f} s, BVH {build_seconds:.2f} s, render {stats['seconds']:.2f} s, "
               f"{stats['mrays_per_s']:.1f} Mrays/s{_texture_summary(nscene)}")
         # What the accuracy cost: the final estimate, time and samples.
-        summary = (f"Coherent: error {_format_error(stats['error_estimate'])} after {stats['spp']} samples "
+        error = _format_error(stats["error_estimate"])
+        if stats["error_estimate"] is None and stats["spp"] >= 2:
+            error = "not estimated (Sampling > Error Estimate: Auto saves its noise)"
+        summary = (f"Coherent: error {error} after {stats['spp']} samples "
                    f"in {stats['seconds']:.2f} s")
         print(summary)
         self.report({"INFO"}, summary)

@@ -29,6 +29,7 @@ TABLE_PROPERTIES = {
     "seed": ("seed", {}),
     "sampler": ("sampler", dict(default="AUTO")),
     "pattern": ("pattern", {}),
+    "error_estimate": ("error_estimate", {}),
     "packet_size": ("packet", {}),
     "use_adaptive_sampling": ("adaptive", {}),
     "adaptive_threshold": ("adaptive_threshold", dict(step=0.1, precision=4)),
@@ -168,6 +169,10 @@ class CoherentRenderSettings(bpy.types.PropertyGroup):
             kwargs["threads"] = scene.render.threads
         kwargs["transparent"] = scene.render.film_transparent
         kwargs["heatmaps"] = self.use_pass_bvh_visits or self.use_pass_simd_utilisation
+        # The Error pass and the convergence record show the estimate as the
+        # error itself: they get the unbiased one.
+        if self.use_pass_error or self.write_convergence:
+            kwargs["error_estimate"] = "exact"
         return kwargs
 
     def seed_for_frame(self, frame):

@@ -246,7 +246,8 @@ def run_pilot(native, nscene, width, height, sampler, renderer_kwargs=None, budg
     """
     kwargs = dict(renderer_kwargs or {})
     kwargs.update(width=width, height=height, spp=max_passes, seed=seed, sampler=sampler.lower(),
-                  target_error=0.0, time_limit=0.0, progressive_display=False, adaptive=False)
+                  target_error=0.0, time_limit=0.0, progressive_display=False, adaptive=False,
+                  error_estimate="exact")  # the model fits the error itself, not a bound
     kwargs.pop("border", None)
     renderer = native.Renderer(nscene, **kwargs)
     points = []

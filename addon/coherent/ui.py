@@ -65,6 +65,9 @@ class RENDER_PT_coherent_sampling(CoherentButtonsPanel, bpy.types.Panel):
         col.prop(props, "sampler")
         col.prop(props, "pattern")
         sub = col.column()
+        sub.active = props.pattern == "SOBOL"  # white noise halves are independent anyway
+        sub.prop(props, "error_estimate")
+        sub = col.column()
         sub.active = props.sampler != "SPT"  # CPT/ICPT share sequences per packet
         sub.prop(props, "packet_size")
 

@@ -27,7 +27,8 @@ struct RenderReport {
 
 // One JSON object, one line:
 // {"seconds", "spp" (samples per pixel actually taken), "spp_max" (--spp),
-//  "error_estimate" (relative RMSE estimate or null), "target_error",
+//  "error_estimate" (relative RMSE estimate; null before 2 passes and under
+//  --error-estimate auto when nothing decides by it), "target_error",
 //  "time_limit", "width", "height", "rays": {<type>: n, ..., "total": n},
 //  "mrays_per_s", "dropped": {...}, "nonfinite_samples", "features": [...],
 //  "output", plus "load_seconds", "build_seconds", "triangles", "memory" {"triangles", "scene_bytes",

@@ -111,7 +111,7 @@ std::vector<OptionSpec> cli_options() {
          "Output", apply_res},
         {"--convergence", "", "CSV",
          "write seconds,spp,error_estimate per progress report (every batch of sample passes, see --report-interval; from the 2nd, when an estimate exists); "
-         "plot it with coherent plot CSV",
+         "implies --error-estimate exact; plot it with coherent plot CSV",
          "Output", [](RenderOptions& o, const std::string& v) { o.convergence = v; }},
         {"--passes", "", "NAMES",
          "Cycles' render passes to accumulate and write into the EXR as layers of Cycles' names, comma-separated: "
@@ -233,6 +233,9 @@ bool parse_render_args(const std::vector<std::string>& args, RenderOptions& opti
             options.scene = arg;
         }
     }
+    // A convergence record is read as the error over time: it gets the
+    // unbiased estimate (RenderSettings::error_estimate).
+    if (!options.convergence.empty()) options.settings.error_estimate = ErrorEstimate::Exact;
     try {
         validate(options.settings);
     } catch (const SettingError& e) {

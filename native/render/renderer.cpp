@@ -264,7 +264,7 @@ SamplerConfig sampler_config(const RenderSettings& rs) {
     c.packet_height = rs.packet_height;
     c.scope = rs.sequence_scope;
     c.dims = PathDims::count(rs.max_bounces);
-    c.sequence = rs.pattern;
+    c.sequence = rs.resolved_pattern();
     return c;
 }
 
@@ -569,7 +569,7 @@ bool Renderer::render(const ProgressCallback& progress) {
         done += count;
         stats_.spp = done;
         // O(pixels), once per batch.
-        if (done >= 2) stats_.error_estimate = film_.relative_rmse_estimate();
+        if (done >= 2 && settings_.error_estimated()) stats_.error_estimate = film_.relative_rmse_estimate();
         if (!reporter.report(done, double(done) / spp, stats_)) cancel();
         if (stop_after_pass(done, spp)) break;
     }

@@ -143,6 +143,15 @@ std::vector<SettingSpec> sampling_rows() {
                                                                        "pixel (SPT), packet (CPT) or subset (ICPT): "
                                                                        "error falls faster on smooth lighting"}}},
         "the random numbers behind every sampler"));
+    t.push_back(choice<ErrorEstimate>(
+        "error_estimate", "Error Estimate", "Sampling", &RenderSettings::error_estimate,
+        {{ErrorEstimate::Auto, {"auto", "Auto", "Estimate the error where target error, adaptive sampling or "
+                                                "denoising decide by it; elsewhere take Sobol samples from one "
+                                                "scramble: less noise (0.75-0.95x the variance), no estimate"}},
+         {ErrorEstimate::Exact, {"exact", "Exact", "Even and odd samples from independent scrambles, so the "
+                                                   "estimate is unbiased; for the Error pass and convergence "
+                                                   "records"}}},
+        "whether the render pays for an error estimate in noise (Sobol pattern)"));
     t.push_back(flag("denoise", "Denoise", "Sampling", &RenderSettings::denoise,
                      "denoise the final image with the native feature-guided, cross-validated filter (the noisy "
                      "image stays in the 'Noisy Image' pass)"));

@@ -91,6 +91,13 @@ struct RenderSettings {
     // (sample/owen_sobol.h; 1.4-2.9x the efficiency of white noise for SPT
     // and CPT at 16-256 spp, docs/results/sobol_sampling.md), or white noise.
     SampleSequence pattern = SampleSequence::OwenSobol;
+    // Auto: the render estimates its error (even and odd Sobol samples from
+    // paired scrambles) only where something decides with the estimate;
+    // elsewhere its samples come from one scramble, which leaves less noise
+    // but no estimate (the halves' difference would overstate the error up
+    // to 6x). Front ends ask for Exact when they show the Error pass or
+    // record the estimate (sample/sampler_type.h).
+    ErrorEstimate error_estimate = ErrorEstimate::Auto;
     bool progressive_display = false;   // a front end shows passes as they finish
 
     // Light transport and tracing (render_modes.h).
@@ -143,6 +150,20 @@ struct RenderSettings {
     int tile_size = 32;
 
     int border_width() const { return (border_x1 < 0 ? width : border_x1) - border_x0; }
+    // Target error, adaptive sampling and the denoiser (which filters each
+    // half with weights from the other) decide with the estimate; the
+    // viewport keeps the exact estimate it always showed.
+    bool exact_error_estimate() const {
+        return error_estimate == ErrorEstimate::Exact || target_error > 0.0 || adaptive || denoise ||
+               progressive_display;
+    }
+    // Whether Stats::error_estimate is filled (white noise halves are
+    // independent whatever the setting).
+    bool error_estimated() const { return resolved_pattern() != SampleSequence::OwenSobolOneScramble; }
+    SampleSequence resolved_pattern() const {
+        return pattern == SampleSequence::OwenSobol && !exact_error_estimate() ? SampleSequence::OwenSobolOneScramble
+                                                                                 : pattern;
+    }
     SamplerType resolved_sampler() const { return resolve_sampler_type(sampler, progressive_display, denoise); }
     Traversal resolved_traversal() const { return resolve_traversal(traversal, resolved_sampler()); }
     int border_height() const { return (border_y1 < 0 ? height : border_y1) - border_y0; }

@@ -112,7 +112,8 @@ struct RenderStats {
     uint64_t pixels = 0;
     double converged_fraction() const { return pixels ? double(converged_pixels) / double(pixels) : 0.0; }
     // Film::relative_rmse_estimate() after the last completed pass; negative
-    // while unknown (fewer than 2 passes).
+    // while unknown (fewer than 2 passes) and when not estimated
+    // (RenderSettings::error_estimated()).
     double error_estimate = -1.0;
     // Denoising (settings.denoise): the denoised image's relative RMSE
     // estimate from its filtered halves (negative: not denoised), and the

@@ -76,6 +76,8 @@ constexpr SobolSlot sobol_slot(uint32_t dim) {
 //     film's error estimate compares the even and the odd half-images and
 //     needs them independent; the halves of one Sobol sequence are not (they
 //     are complementary strata), the points of two scrambles are.
+//   OwenSobolOneScramble: sample k is point k of one scrambled sequence
+//     (the first 2^m samples are one net: less error, a biased-high estimate).
 //   WhiteNoise: a counter-based hash of (key, sample, dim).
 // Samplers fill tables from the same function, so both give equal values.
 class SampleStream {
@@ -84,9 +86,10 @@ public:
                  const float* row = nullptr, uint32_t tabulated_dims = 0)
         : row_(row),
           tabulated_dims_(row ? tabulated_dims : 0),
-          sobol_(sequence == SampleSequence::OwenSobol),
-          reversed_index_(reverse_bits32(sample >> 1)),
-          key_(sobol_ ? hash_combine(key, 0x50b01000ull | (sample & 1u)) : key),
+          sobol_(sequence != SampleSequence::WhiteNoise),
+          reversed_index_(reverse_bits32(sequence == SampleSequence::OwenSobol ? sample >> 1 : sample)),
+          key_(sobol_ ? hash_combine(key, 0x50b01000ull | (sequence == SampleSequence::OwenSobol ? sample & 1u : 0u))
+                      : key),
           sample_word_(uint64_t(sample) << 32) {}
 
     float get(uint32_t dim) const {

@@ -24,7 +24,22 @@ enum class SamplerType : uint8_t { Spt, Cpt, Icpt, Auto };
 // integrands, docs/results/sobol_sampling.md) or white noise from a
 // counter-based hash. A render picks one with RenderSettings::pattern
 // (Sobol by default).
-enum class SampleSequence : uint8_t { OwenSobol, WhiteNoise };
+//
+// OwenSobol draws the even and the odd samples from two independently
+// scrambled sequences, so that the film's even/odd half-images have
+// independent errors (an unbiased error estimate). OwenSobolOneScramble
+// draws every sample from one sequence: its points stay stratified across
+// the halves, so the image's error is lower (at 256 spp, 0.78x the variance
+// on the sun-lit bunny's silhouettes, docs/results/efficiency_speed.md
+// section 6) but the halves' difference overstates it (6x on a smooth scene
+// at 64 spp), so such a render reports no estimate. Renders pick it through
+// RenderSettings::error_estimate, never through `pattern`.
+enum class SampleSequence : uint8_t { OwenSobol, WhiteNoise, OwenSobolOneScramble };
+
+// Whether a render estimates its error (ErrorEstimate::Exact: samples from
+// paired scrambles) or, where nothing decides by the estimate, leaves it out
+// in exchange for less noise (Auto; RenderSettings::exact_error_estimate()).
+enum class ErrorEstimate : uint8_t { Auto, Exact };
 
 // Auto chooses by error per second (issue 10, item 5), measured through
 // Blender on the repository's and the public scenes (6 scenes, 128x128,

@@ -17,6 +17,9 @@ def main(argv):
     scene.render.engine = "COHERENT"
     scene.render.resolution_percentage = percent
     scene.render.image_settings.file_format = "OPEN_EXR_MULTILAYER"
+    # Denoising renders with paired scrambles (Error Estimate: Exact); the
+    # plain renders must too, to be the denoised ones' inputs seed for seed.
+    scene.coherent.error_estimate = "EXACT"
     for spec in specs:
         name, samples, seed, denoise, *options = spec.split(":")
         if options:

@@ -367,12 +367,17 @@ def test_target_error_stops_early_and_json_reports_spp_taken(cli, cornell, tmp_p
     assert stats["rays"]["camera"] == 24 * 24 * stats["spp"]
     assert out.exists()
 
-    # Without a stopping rule every requested sample is taken and the estimate is reported.
-    r = run(cli, "render", cornell, "-o", tmp_path / "full.exr", "--res", 8, 8, "--spp", 6, "--json")
+    # Without a stopping rule every requested sample is taken; the estimate is
+    # reported when asked for (Auto leaves it out for less noise).
+    r = run(cli, "render", cornell, "-o", tmp_path / "full.exr", "--res", 8, 8, "--spp", 6, "--json",
+            "--error-estimate", "exact")
     assert r.returncode == 0, r.stderr
     stats = json.loads(r.stdout)
     assert stats["spp"] == 6 and stats["settings"]["spp"] == 6
     assert stats["error_estimate"] > 0.0
+    r = run(cli, "render", cornell, "-o", tmp_path / "auto.exr", "--res", 8, 8, "--spp", 6, "--json")
+    assert r.returncode == 0, r.stderr
+    assert json.loads(r.stdout)["error_estimate"] is None
     # One pass has no odd half: no estimate yet.
     r = run(cli, "render", cornell, "-o", tmp_path / "one.exr", "--res", 8, 8, "--spp", 1, "--json")
     assert json.loads(r.stdout)["error_estimate"] is None
@@ -446,10 +451,11 @@ def test_batches_of_passes_end_at_even_counts_and_grow_by_at_most_half(cli, corn
     assert len(spp) < 31, spp  # fewer reports than passes
     assert all(n % 2 == 0 for n in spp), spp
     assert all(a < b <= a + max(2, a // 2) for a, b in zip(spp, spp[1:])), spp
-    # The batches change when reports come, never the image.
+    # The batches change when reports come, never the image. (--convergence
+    # implies --error-estimate exact, which draws other samples than Auto.)
     single = tmp_path / "single.exr"
     r = run(cli, "render", cornell, "-o", single, "--res", 48, 48, "--spp", 32, "--threads", 1,
-            "--report-interval", 0)
+            "--report-interval", 0, "--error-estimate", "exact")
     assert r.returncode == 0, r.stderr
     assert oiio_pixels(out) == oiio_pixels(single)
 

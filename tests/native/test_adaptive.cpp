@@ -324,6 +324,7 @@ TEST(Adaptive, PixelErrorIsTheEstimateAtThePixelsOwnCount) {
             if (!full_err.count(n)) {
                 RenderSettings rs = settings(false, test::test_seed(31));
                 rs.spp = int(n);
+                rs.error_estimate = ErrorEstimate::Exact;  // the paired scrambles adaptive sampling renders with
                 Renderer f(scene, rs);
                 ASSERT_TRUE(f.render());
                 full_err[n] = f.film().resolve(PassType::Error);

@@ -262,6 +262,9 @@ RenderSettings small_settings(bool denoise) {
     rs.width = rs.height = 24;
     rs.spp = 4;
     rs.denoise = denoise;
+    // Denoising always renders with paired scrambles (it filters each half
+    // with the other's weights); the plain render must draw the same samples.
+    rs.error_estimate = ErrorEstimate::Exact;
     return rs;
 }
 

@@ -107,6 +107,9 @@ struct RowEstimate {
 constexpr int kSuper = 9;  // odd: one sub-pixel is centred on the pixel's centre
 
 RowEstimate render_row8(const Scene& scene, RenderSettings rs, int batches) {
+    // per_sample_sd below scales our spread to the reference's sample count
+    // as 1/sqrt(spp), which holds for independent samples: white noise.
+    rs.pattern = SampleSequence::WhiteNoise;
     rs.width = rs.height = 16 * kSuper;
     rs.border_y0 = 8 * kSuper + kSuper / 2;  // only the compared (sub-)row
     rs.border_y1 = rs.border_y0 + 1;

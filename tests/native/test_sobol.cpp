@@ -202,6 +202,7 @@ RenderSettings settings(int res, int spp, SamplerType sampler, uint64_t seed, in
     rs.spp = spp;
     rs.sampler = sampler;
     rs.pattern = SampleSequence::OwenSobol;
+    rs.error_estimate = ErrorEstimate::Exact;  // paired scrambles: what these tests measure
     rs.seed = seed;
     rs.max_bounces = max_bounces;
     rs.threads = 2;
