@@ -273,6 +273,7 @@ void triangle_bounds(const Vec3f* verts, size_t triangle_count, std::vector<BBox
             valid[i] = is_finite(a) && is_finite(b) && is_finite(c);
             BBox box;
             box.expand(a); box.expand(b); box.expand(c);
+            box = box.with_positive_zeros();  // parallel merges below stay order-independent
             boxes[i] = box;
             centroids[i] = box.center();
         }

@@ -120,6 +120,8 @@ void split_reference(const Vec3f* v, const BBox& box, int axis, float pos, BBox&
     right = intersect_boxes(rv, box);
     left.hi[axis] = std::min(left.hi[axis], pos);
     right.lo[axis] = std::max(right.lo[axis], pos);
+    left = left.with_positive_zeros();  // as the input references (build_spatial_bvh)
+    right = right.with_positive_zeros();
 }
 
 // Evenly spaced planes over [lo, hi] on one axis: planes[1 .. bins-1] (plane
@@ -506,6 +508,7 @@ void build_spatial_bvh(const Vec3f* verts, const std::vector<uint32_t>& tris, co
     for (size_t i = 0; i < tris.size(); ++i) {
         BBox b;
         for (int k = 0; k < 3; ++k) b.expand(verts[3 * size_t(tris[i]) + k]);
+        b = b.with_positive_zeros();  // the parallel bin merges stay order-independent
         refs[i] = {b, tris[i]};
         root.expand(b);
     }
