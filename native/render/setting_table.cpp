@@ -147,7 +147,7 @@ std::vector<SettingSpec> sampling_rows() {
         "error_estimate", "Error Estimate", "Sampling", &RenderSettings::error_estimate,
         {{ErrorEstimate::Auto, {"auto", "Auto", "Estimate the error where target error, adaptive sampling or "
                                                 "denoising decide by it; elsewhere take Sobol samples from one "
-                                                "scramble: less noise (0.75-0.95x the variance), no estimate"}},
+                                                "scramble: less noise (0.73-0.98x the variance), no estimate"}},
          {ErrorEstimate::Exact, {"exact", "Exact", "Even and odd samples from independent scrambles, so the "
                                                    "estimate is unbiased; for the Error pass and convergence "
                                                    "records"}}},

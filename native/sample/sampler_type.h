@@ -29,9 +29,9 @@ enum class SamplerType : uint8_t { Spt, Cpt, Icpt, Auto };
 // scrambled sequences, so that the film's even/odd half-images have
 // independent errors (an unbiased error estimate). OwenSobolOneScramble
 // draws every sample from one sequence: its points stay stratified across
-// the halves, so the image's error is lower (at 256 spp, 0.78x the variance
-// on the sun-lit bunny's silhouettes, docs/results/efficiency_speed.md
-// section 6) but the halves' difference overstates it (6x on a smooth scene
+// the halves, so the image's error is lower (0.73x the variance on the
+// sphere scene at 64 spp, 0.78x on the sun-lit bunny's direct light at 256,
+// docs/results/efficiency_speed.md section 6) but the halves' difference overstates it (6x on a smooth scene
 // at 64 spp), so such a render reports no estimate. Renders pick it through
 // RenderSettings::error_estimate, never through `pattern`.
 enum class SampleSequence : uint8_t { OwenSobol, WhiteNoise, OwenSobolOneScramble };
