@@ -39,7 +39,7 @@ struct Box4 {
     static Box4 load(const BBox& b) {
         static_assert(sizeof(BBox) == 24, "BBox must be lo then hi, six floats");
         const float* f = &b.lo.x;
-        Box4 r;  // both lanes sets assigned below
+        Box4 r;  // both registers are assigned below
         r.lo = simd::vfloat4::loadu(f);
         r.hi = simd::vfloat4(_mm_shuffle_ps(_mm_loadu_ps(f + 2), _mm_loadu_ps(f + 2), _MM_SHUFFLE(0, 3, 2, 1)));
         return r;

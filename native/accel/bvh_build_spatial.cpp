@@ -402,8 +402,13 @@ private:
         }
         if (best.axis >= 0)
             for (int i = 0; i < bins_; ++i) {
-                (i <= best.bin ? best.lbox : best.rbox).expand(bins.box[best.axis][i].to_bbox());
-                if (i <= best.bin) best.lcount += bins.count[best.axis][i];
+                const BBox b = bins.box[best.axis][i].to_bbox();
+                if (i <= best.bin) {
+                    best.lbox.expand(b);
+                    best.lcount += bins.count[best.axis][i];
+                } else {
+                    best.rbox.expand(b);
+                }
             }
         return best;
     }
