@@ -17,6 +17,11 @@
 // delivers into the scene, in watts (light_importance() and the constructor
 // in the .cpp state and justify the units per kind of emitter).
 //
+// Within a unit: an emissive triangle is picked by power (area x emission
+// luminance), then sampled by solid angle from shading points near its plane
+// (spherical_triangle.h) and by area elsewhere; rectangular area lights by
+// solid angle (spherical rectangles) wherever that is numerically sound.
+//
 // Light units follow Cycles 3.4 exactly. Measured in Blender 3.4.1 (Cycles
 // CPU, 512 spp, white Lambert plane, light 2 m above, orthographic camera,
 // Standard view transform, /tmp calibration script described in the report):
@@ -40,6 +45,7 @@
 #include <vector>
 
 #include "../scene/scene.h"
+#include "spherical_triangle.h"
 #include "world_sampling.h"
 
 namespace coherent {
@@ -117,6 +123,10 @@ public:
 private:
     float world_pdf(const Vec3f& d, const Vec3f& n, bool transmissive) const;
     bool sample_triangle(const Vec3f& p, float u_pick, float u1, float u2, LightSample& ls) const;
+    // Whether emissive triangle `tri` is sampled by solid angle from p (st
+    // then holds it) rather than by area. sample_triangle and triangle_pdf
+    // both decide here, so MIS sees the pdf the sample was drawn with.
+    bool triangle_by_solid_angle(uint32_t tri, const Vec3f& p, SphericalTriangle& st) const;
     bool sample_world(const Vec3f& n, bool transmissive, float u1, float u2, LightSample& ls) const;
     // The emissive triangles' pick distribution (tri_*), by power.
     void pick_triangles_by_power(const Scene& scene);
