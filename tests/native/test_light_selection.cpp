@@ -132,6 +132,48 @@ TEST(EnvironmentSampler, SamplePdfMatchesPdfAndLookup) {
     }
 }
 
+// The pdf gives each texel the share of the map's power that the bilinear
+// lookup puts there: the integral of its luminance over the texel, times the
+// cosine of elevation. A wider distribution (each texel weighted by its
+// brightest neighbour, as before) sends samples to dark texels beside bright
+// ones and measured 1.25x Cycles' RMSE on an HDRI world, against 1.06x now.
+// Oracle: the lookup integrated over each texel on an 8x8 midpoint grid
+// (the two quadratures differ by 1.5 % at worst, in the polar rows). The
+// brightest-neighbour weights were off by up to 40x; the tent without the
+// cosine's slope across a polar row by up to 0.94x.
+TEST(EnvironmentSampler, EachTexelIsSampledByItsShareOfTheMapsPower) {
+    const int w = 64, h = 32, m = 8;
+    const EnvironmentMap map = structured_map(w, h);
+    const EnvironmentSampler env(map);
+    std::vector<double> share(size_t(w * h));
+    double total = 0.0;
+    for (int y = 0; y < h; ++y)
+        for (int x = 0; x < w; ++x) {
+            double sum = 0.0;
+            for (int j = 0; j < m; ++j)
+                for (int i = 0; i < m; ++i) {
+                    const float u = (float(x) + (float(i) + 0.5f) / float(m)) / float(w);
+                    const float v = (float(y) + (float(j) + 0.5f) / float(m)) / float(h);
+                    sum += double(luminance(env.eval(equirect_to_direction(u, v)))) * std::cos(kPi * (v - 0.5f));
+                }
+            share[size_t(y * w + x)] = sum;
+            total += sum;
+        }
+    int off = 0;
+    double worst = 0.0;
+    for (int y = 0; y < h; ++y)
+        for (int x = 0; x < w; ++x) {
+            const float v = (float(y) + 0.5f) / float(h);
+            const Vec3f centre = equirect_to_direction((float(x) + 0.5f) / float(w), v);
+            const double sampled = double(env.pdf(centre)) * std::cos(kPi * (v - 0.5f)) * 2.0 * kPi * kPi / (w * h);
+            const double want = share[size_t(y * w + x)] / total;
+            const double err = std::fabs(sampled - want);
+            worst = std::max(worst, err / std::max(want, 1e-12));
+            if (!(err <= 0.03 * want + 1e-9)) ++off;
+        }
+    EXPECT_EQ(off, 0) << "worst relative difference " << worst;
+}
+
 TEST(EnvironmentSampler, MeanLuminanceOfAConstantMapIsItsLuminance) {
     EnvironmentMap map;
     map.width = 32, map.height = 64;
