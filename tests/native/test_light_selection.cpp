@@ -553,5 +553,34 @@ TEST(LightSelection, SolidAngleSamplingBoundsANearEmittersEstimate) {
     EXPECT_GT(most, 0.5f * 3.0f * st.solid_angle);
 }
 
+// Hard cases for solid-angle sampling: shading points on an emitter itself,
+// in its plane beside it, on its edge and vertex, and a sliver triangle. Every
+// sample is finite with a positive pdf, and so is the pdf MIS computes for it.
+TEST(LightSelection, NearEmitterSamplingStaysFiniteInItsOwnPlane) {
+    Scene scene;
+    const Vec3f a(0.0f, 0.0f, 1.0f), b(1.0f, 0.0f, 1.0f), c(0.0f, 1.0f, 1.0f);
+    add_triangle_emitter(scene, a, b, c, 5.0f);
+    add_triangle_emitter(scene, Vec3f(3.0f, 0.0f, 1.0f), Vec3f(4.0f, 0.0f, 1.0f), Vec3f(3.5f, 1e-6f, 1.0f), 5.0f);
+    scene.finalize();
+    const LightSet lights(scene);
+    const Vec3f points[] = {{0.25f, 0.25f, 1.0f},  {0.25f, 0.25f, 1.0f + 1e-7f}, {2.0f, 0.5f, 1.0f},
+                            {0.5f, 0.0f, 1.0f},    {0.0f, 0.0f, 1.0f},           {3.5f, 0.0f, 1.0f},
+                            {0.3f, 0.3f, 1.0001f}, {3.5f, 0.0f, 1.001f}};
+    Uniform u(27);
+    for (const Vec3f& p : points)
+        for (const Vec3f& n : {Vec3f(0, 0, 1), Vec3f(0, 0, -1), Vec3f(1, 0, 0)}) {
+            for (int i = 0; i < 2000; ++i) {
+                LightSample ls;
+                if (!lights.sample(p, n, false, u(), u(), u(), ls)) continue;
+                ASSERT_TRUE(std::isfinite(ls.pdf) && ls.pdf > 0.0f) << p.x << " " << p.y << " " << p.z;
+                ASSERT_TRUE(is_finite(ls.li) && is_finite(ls.wi) && std::isfinite(ls.dist));
+                ASSERT_NEAR(length(ls.wi), 1.0f, 1e-4f);
+                const float mis = std::max(lights.triangle_pdf(0, p, ls.p_light, ls.n_light),
+                                           lights.triangle_pdf(1, p, ls.p_light, ls.n_light));
+                ASSERT_TRUE(std::isfinite(mis));
+            }
+        }
+}
+
 }  // namespace
 }  // namespace coherent
