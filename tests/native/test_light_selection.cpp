@@ -365,19 +365,23 @@ Scene scene_with_points() {
     return scene;
 }
 
-void add_quad_emitter(Scene& scene, float z, float half, const Vec3f& emission) {
-    const float pos[] = {-half, -half, z, half, -half, z, half, half, z, -half, half, z};
-    const uint32_t idx[] = {0, 1, 2, 0, 2, 3};
+// An emitting mesh of `positions` (xyz per vertex) and triangle `indices`.
+void add_emitter(Scene& scene, const std::vector<float>& positions, const std::vector<uint32_t>& indices,
+                 const Vec3f& emission) {
     Material mat;
     mat.emission = emission;
     MeshInput mesh;
     mesh.name = "emitter";
-    mesh.positions = pos;
-    mesh.vertex_count = 4;
-    mesh.indices = idx;
-    mesh.triangle_count = 2;
+    mesh.positions = positions.data();
+    mesh.vertex_count = positions.size() / 3;
+    mesh.indices = indices.data();
+    mesh.triangle_count = indices.size() / 3;
     mesh.material_slots = {scene.add_material(mat)};
     scene.add_mesh(mesh);
+}
+
+void add_quad_emitter(Scene& scene, float z, float half, const Vec3f& emission) {
+    add_emitter(scene, {-half, -half, z, half, -half, z, half, half, z, -half, half, z}, {0, 1, 2, 0, 2, 3}, emission);
 }
 
 PdfCheck check_pdfs(const Scene& scene, uint64_t seed) {
@@ -459,18 +463,7 @@ double polygon_irradiance(const std::vector<Vec3f>& verts, const Vec3f& p, const
 }
 
 void add_triangle_emitter(Scene& scene, const Vec3f& a, const Vec3f& b, const Vec3f& c, float emission) {
-    const float pos[] = {a.x, a.y, a.z, b.x, b.y, b.z, c.x, c.y, c.z};
-    const uint32_t idx[] = {0, 1, 2};
-    Material mat;
-    mat.emission = Vec3f(emission);
-    MeshInput mesh;
-    mesh.name = "emitter";
-    mesh.positions = pos;
-    mesh.vertex_count = 3;
-    mesh.indices = idx;
-    mesh.triangle_count = 1;
-    mesh.material_slots = {scene.add_material(mat)};
-    scene.add_mesh(mesh);
+    add_emitter(scene, {a.x, a.y, a.z, b.x, b.y, b.z, c.x, c.y, c.z}, {0, 1, 2}, Vec3f(emission));
 }
 
 TEST(LightSelection, NextEventEstimateIsUnbiasedForNearAndFarEmissiveTriangles) {
