@@ -48,6 +48,7 @@ TABLE_PROPERTIES = {
     "glossy_bounces": ("glossy_bounces", {}),
     "transmission_bounces": ("transmission_bounces", {}),
     "transparent_max_bounces": ("transparent_max_bounces", {}),
+    "rr_min_bounces": ("rr_min_bounces", {}),
     "clamp_direct": ("clamp_direct", {}),
     "clamp_indirect": ("clamp_indirect", {}),
     "uniform_light_selection": ("uniform_light_selection", {}),

@@ -212,6 +212,7 @@ class RENDER_PT_coherent_light_paths(CoherentButtonsPanel, bpy.types.Panel):
         col.prop(props, "glossy_bounces", text="Glossy")
         col.prop(props, "transmission_bounces", text="Transmission")
         col.prop(props, "transparent_max_bounces", text="Transparent")
+        layout.prop(props, "rr_min_bounces")
         col = layout.column(heading="Clamping", align=True)
         col.prop(props, "clamp_direct", text="Direct Light")
         col.prop(props, "clamp_indirect", text="Indirect Light")
