@@ -43,7 +43,8 @@ struct TileJob {
     Film* film;
     int x0, y0, x1, y1;  // full-frame pixel rectangle, half-open
     int border_x0, border_y0;
-    uint32_t sample;
+    uint32_t sample;       // the first sample of this call
+    uint32_t samples = 1;  // samples each pixel takes, from `sample` on (>1: TileLayout::pixel_runs kernels only)
     const std::atomic<bool>* cancelled;
     const uint8_t* converged;  // per film pixel, row stride film width; null = none skipped
     int film_width;
@@ -58,9 +59,10 @@ struct TileJob {
         // Adaptive sampling: a converged pixel keeps its mean and takes no more samples.
         return converged && converged[size_t(y - border_y0) * size_t(film_width) + size_t(x - border_x0)];
     }
-    // Adds a finished sample to the film. No NaN/Inf ever reaches the film:
-    // a non-finite sample is discarded whole and counted.
-    void add(int x, int y, const PathOutput& o, float node_visits, float simd_utilisation, RenderStats& st) const {
+    // Adds finished sample `sample` to the film. No NaN/Inf ever reaches the
+    // film: a non-finite sample is discarded whole and counted.
+    void add(int x, int y, uint32_t sample, const PathOutput& o, float node_visits, float simd_utilisation,
+             RenderStats& st) const {
         if (!is_finite(o.radiance) || !std::isfinite(o.alpha) || std::isnan(o.depth) || !is_finite(o.normal)) {
             ++st.nonfinite_samples;
             return;
@@ -72,11 +74,11 @@ struct TileJob {
             film->add_denoising_features(x - border_x0, y - border_y0, ok ? o.albedo : Vec3f(0.0f),
                                          ok ? o.denoising_normal : Vec3f(0.0f), sample);
         }
-        if (passes) add_passes(x, y, o.passes, st);
+        if (passes) add_passes(x, y, sample, o.passes, st);
         ++st.samples;
     }
     // A non-finite pass value is dropped (counted) without dropping the sample.
-    void add_passes(int x, int y, const PassSample& values, RenderStats& st) const {
+    void add_passes(int x, int y, uint32_t sample, const PassSample& values, RenderStats& st) const {
         for (float v : values.v)
             if (!std::isfinite(v)) {
                 ++st.nonfinite_samples;
@@ -86,19 +88,25 @@ struct TileJob {
     }
 };
 
-// Single rays: each pixel's path depth-first (path_tracer.h); returns early on cancel.
+// Single rays: each pixel's paths depth-first (path_tracer.h), the call's
+// samples of one pixel one after another, as Cycles' CPU kernel takes them:
+// the texels and BVH nodes a pixel's paths touch are still in cache for its
+// next sample, where a pass over the tile would have evicted them. Returns
+// early on cancel.
 template <bool kGlass, bool kDepthOfField, bool kLights>
 void render_tile(const TileJob& job, RenderStats& st) {
     for (int y = job.y0; y < job.y1; ++y) {
         if (job.cancelled->load(std::memory_order_relaxed)) return;
         for (int x = job.x0; x < job.x1; ++x) {
             if (job.skip(x, y)) continue;
-            const PathSampler ps(*job.sampler, uint32_t(x), uint32_t(y), job.sample);
-            uint32_t visits = 0;
-            const PathOutput o =
-                trace_path<kGlass, kDepthOfField, kLights>(*job.ctx, ps, x, y, st, job.heatmaps ? &visits : nullptr);
-            // Single rays use every lane they have: utilisation 1.
-            job.add(x, y, o, float(visits), 1.0f, st);
+            for (uint32_t sample = job.sample; sample < job.sample + job.samples; ++sample) {
+                const PathSampler ps(*job.sampler, uint32_t(x), uint32_t(y), sample);
+                uint32_t visits = 0;
+                const PathOutput o = trace_path<kGlass, kDepthOfField, kLights>(*job.ctx, ps, x, y, st,
+                                                                                job.heatmaps ? &visits : nullptr);
+                // Single rays use every lane they have: utilisation 1.
+                job.add(x, y, sample, o, float(visits), 1.0f, st);
+            }
         }
     }
 }
@@ -152,7 +160,7 @@ void render_tile_packets(const TileJob& job, RenderStats& st) {
         const float visits = job.heatmaps ? float(tile.node_visits[p]) : 0.0f;
         const float util = job.heatmaps && tile.lanes[p] ? float(double(tile.lanes_active[p]) / double(tile.lanes[p]))
                                                          : 1.0f;
-        job.add(tile.px[p], tile.py[p], tile.states[p].out, visits, util, st);
+        job.add(tile.px[p], tile.py[p], job.sample, tile.states[p].out, visits, util, st);
     }
 }
 
@@ -171,7 +179,8 @@ void render_tile_streams(const TileJob& job, RenderStats& st) {
     trace_tile_streams<kGlass, kLights>(*job.ctx, tile, scratch, st);
     // Streams keep no per-ray visit counts (traversal_counts_path_visits):
     // the BVH Visits heatmap stays 0.
-    for (size_t p = 0; p < tile.size(); ++p) job.add(tile.px[p], tile.py[p], tile.states[p].out, 0.0f, 1.0f, st);
+    for (size_t p = 0; p < tile.size(); ++p)
+        job.add(tile.px[p], tile.py[p], job.sample, tile.states[p].out, 0.0f, 1.0f, st);
 }
 
 // One WavefrontRenderer (and its wave buffers) per thread, kept across passes.
@@ -197,7 +206,7 @@ void render_tile_wavefront(const TileJob& job, RenderStats& st) {
     job.wavefront->local().render_pass(
         *job.sampler, job.sample, job.x0, job.y0, job.x1, job.y1, [&](int x, int y) { return job.skip(x, y); },
         [&](int x, int y, const PathOutput& o, uint32_t visits) {
-            job.add(x, y, o, heat ? float(visits) : 0.0f, 1.0f, st);
+            job.add(x, y, job.sample, o, heat ? float(visits) : 0.0f, 1.0f, st);
         },
         st, job.cancelled);
 }
@@ -223,11 +232,13 @@ TileFn select_tile_kernel(Traversal traversal, const KernelFeatures& features) {
 struct TileLayout {
     TileFn kernel;
     int tw, th, tiles_x, tiles;
+    bool pixel_runs = false;  // kernel takes a run of samples per pixel (TileJob::samples)
 };
 
 TileLayout tile_layout(const RenderSettings& rs, Traversal traversal, const KernelFeatures& features) {
     TileLayout l;
     l.kernel = select_tile_kernel(traversal, features);
+    l.pixel_runs = traversal == Traversal::Single;
     const int bw = rs.border_width(), bh = rs.border_height();
     // Packet traversal: tiles hold whole packets (a multiple of the packet
     // size, about tile_size pixels on a side), so no packet straddles tiles.
@@ -444,10 +455,17 @@ TileJob place_tile(const TileJob& pass_job, const TileLayout& layout, int t, con
 // sample to the next, where sweeping the whole image per pass evicts them.
 class TileQueue {
 public:
-    // Runs of about a quarter of the batch: the batch ends at most one run
-    // of one tile after the other threads finish.
-    TileQueue(int tiles, int count)
-        : next_(size_t(tiles)), busy_(size_t(tiles)), count_(count), run_(std::max(1, (count + 3) / 4)) {}
+    // Runs as long as a quarter of one thread's share of the batch: the batch
+    // ends at most that long after the other threads finish. With many
+    // tiles per thread that is the whole batch, which keeps a tile's (with
+    // single rays: a pixel's) texels and nodes in cache the longest.
+    TileQueue(int tiles, int count, int threads)
+        : next_(size_t(tiles)), busy_(size_t(tiles)), count_(count), run_(run_length(tiles, count, threads)) {}
+
+    static int run_length(int tiles, int count, int threads) {
+        const int64_t share = int64_t(count) * tiles / (4 * int64_t(std::max(threads, 1)));
+        return int(std::clamp<int64_t>(share, 1, std::max(count, 1)));
+    }
 
     // Claims a run of the idle tile furthest behind among the next kWindow
     // tiles from a rotating start (threads spread out, and a claim costs the
@@ -495,7 +513,7 @@ template <class OnProgress>
 void render_batch(tbb::task_arena& arena, const TileLayout& layout, const TileJob& batch_job, int first, int count,
                   const RenderSettings& rs, RenderStats& stats, OnProgress&& on_progress) {
     tbb::enumerable_thread_specific<RenderStats> local;
-    TileQueue queue(layout.tiles, count);
+    TileQueue queue(layout.tiles, count, arena.max_concurrency());
     std::atomic<int> done{0};
     arena.execute([&] {
         tbb::parallel_for(0, arena.max_concurrency(), [&](int) {
@@ -504,6 +522,13 @@ void render_batch(tbb::task_arena& arena, const TileLayout& layout, const TileJo
             while (!batch_job.cancelled->load(std::memory_order_relaxed) && queue.claim(tile, pass, n)) {
                 TileJob job = place_tile(batch_job, layout, tile, rs);
                 int ran = 0;
+                if (layout.pixel_runs) {  // the run's passes in one call, pixel by pixel
+                    job.sample = uint32_t(first + pass);
+                    job.samples = uint32_t(n);
+                    layout.kernel(job, st);
+                    ran = n;
+                    on_progress(done.fetch_add(n, std::memory_order_relaxed) + n);
+                }
                 for (; ran < n && !batch_job.cancelled->load(std::memory_order_relaxed); ++ran) {
                     job.sample = uint32_t(first + pass + ran);
                     layout.kernel(job, st);
