@@ -30,7 +30,11 @@
 
 namespace coherent::simd {
 
-// Starts loading the cache line at p into L1 (a hint; never faults).
-inline void prefetch(const void* p) { _mm_prefetch(static_cast<const char*>(p), _MM_HINT_T0); }
+// Starts loading the cache line at p into L1 (a hint; never faults). Not
+// _mm_prefetch: GCC counts that as free of side effects, so a function that
+// only prefetches is pure and its calls are deleted as unused (the texture
+// prefetch of shader/image_filter.h compiled to a bare return); an asm
+// statement is kept where it is written.
+inline void prefetch(const void* p) { asm volatile("prefetcht0 %0" : : "m"(*static_cast<const char*>(p))); }
 
 }  // namespace coherent::simd

@@ -118,13 +118,18 @@ Vec3f normal_map(const Scene& scene, const ShadingGeometry& g, NormalMapSpace sp
     return ensure_valid_reflection(g.ng, g.wo, n);
 }
 
-void image_texture(const Scene& scene, const ShaderInstr& in, const Registers& r) {
-    const Vec3f co = r.v(in.in[0]);
+TextureLookup image_lookup_of(const ShaderInstr& in) {
     TextureLookup how;
     const int interp = in.mode & kImageInterpMask;
     how.interp = interp == 1 ? TextureLookup::Interp::Closest
                              : (interp >= 2 ? TextureLookup::Interp::Cubic : TextureLookup::Interp::Linear);
     how.extension = TextureLookup::Extension((in.mode & kImageExtensionMask) >> kImageExtensionShift);
+    return how;
+}
+
+void image_texture(const Scene& scene, const ShaderInstr& in, const Registers& r) {
+    const Vec3f co = r.v(in.in[0]);
+    const TextureLookup how = image_lookup_of(in);
     float c[4];
     if (scene.shading.textures) scene.shading.textures->lookup(in.data, co.x, co.y, how, c);
     else std::memcpy(c, kMissingTexture, sizeof(c));
@@ -140,7 +145,7 @@ void image_texture(const Scene& scene, const ShaderInstr& in, const Registers& r
             if (in.mode & kImageBytes) c[k] = std::floor(255.0f * std::clamp(c[k], 0.0f, 1.0f) + 1e-3f) / 255.0f;
         }
     if (in.mode & kImageSrgb)
-        for (int k = 0; k < 3; ++k) c[k] = srgb_to_linear(c[k]);
+        for (int k = 0; k < 3; ++k) c[k] = srgb_to_linear_image(c[k]);
     r.set(in.out[0], Vec3f{c[0], c[1], c[2]});
     r.set(in.out[1], alpha);
 }
@@ -436,6 +441,12 @@ void run_instruction(const Scene& scene, const ShaderProgram& prog, const Shadin
         case ShaderOp::SkyTexture: r.set(in.out[0], eval_packed_sky(prog.data.data() + in.data, r.v(in.in[0]))); break;
         case ShaderOp::Count: break;
     }
+}
+
+void prefetch_instruction(const Scene& scene, const ShaderInstr& in, const Registers& r) {
+    if (in.op != ShaderOp::ImageTexture || !scene.shading.textures) return;
+    const Vec3f co = r.v(in.in[0]);
+    scene.shading.textures->prefetch(in.data, co.x, co.y, image_lookup_of(in));
 }
 
 }  // namespace eval_detail

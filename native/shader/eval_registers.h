@@ -39,6 +39,12 @@ struct Registers {
 void run_instruction(const Scene& scene, const ShaderProgram& prog, const ShadingGeometry& g, const ShaderInstr& in,
                      const Registers& r);
 
+// Starts loading what `in` will read from memory at this point, without
+// waiting (an Image Texture's texels): a batch calls it for every lane before
+// running the instruction, so the lanes' cache misses overlap. Does nothing
+// for other instructions.
+void prefetch_instruction(const Scene& scene, const ShaderInstr& in, const Registers& r);
+
 // Writes output o of a finished register file into `out` (a copy of the
 // material's constants) and the shading normal `n`.
 void apply_output(const ShaderOutput& o, const Registers& r, const ShadingGeometry& g, Material& out, Vec3f& n);

@@ -13,7 +13,9 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <cstring>
 
+#include "../core/simd.h"
 #include "textures.h"  // TextureLookup
 
 namespace coherent {
@@ -45,6 +47,7 @@ inline float bounded(float x) {
 }
 
 inline int wrap_periodic(int x, int size) {
+    if (unsigned(x) < unsigned(size)) return x;  // most taps: no division
     x %= size;
     return x < 0 ? x + size : x;
 }
@@ -77,8 +80,22 @@ struct Texels {
     void add(float w, int x, int y, float acc[kValues]) const {
         if (!inside(x, y)) return;
         const T* t = at(x, y);
+        if constexpr (N == 4) {  // RGBA in one SSE register: the same operations per channel
+            const __m128 sum = _mm_add_ps(_mm_loadu_ps(acc), _mm_mul_ps(_mm_set1_ps(w), values4(t)));
+            _mm_storeu_ps(acc, sum);
+            return;
+        }
         for (int c = 0; c < N; ++c) acc[c] += w * value(t[c]);
         if (kOpaque) acc[N] += w * 1.0f;
+    }
+    // value() of four channels at once: bytes widened and converted exactly,
+    // then times 1/255 as value(uint8_t) rounds it.
+    static __m128 values4(const float* t) { return _mm_loadu_ps(t); }
+    static __m128 values4(const uint8_t* t) {
+        int32_t bytes;
+        std::memcpy(&bytes, t, sizeof(bytes));
+        const __m128 whole = _mm_cvtepi32_ps(_mm_cvtepu8_epi32(_mm_cvtsi32_si128(bytes)));
+        return _mm_mul_ps(whole, _mm_set1_ps(1.0f / 255.0f));
     }
 };
 
@@ -167,6 +184,31 @@ void filter(const ImagePixels& image, float u, float v, TextureLookup how, float
     if (Texels<T, N>::kOpaque) out[3] = acc[N];
 }
 
+// Calls visit(p) for each texel of the footprint a lookup at (x, y) reads
+// (closest: 1, linear: 2 x 2, cubic: 4 x 4), row by row, wrapped as the
+// lookup wraps them; clipped taps are clamped into the image, so every p
+// addresses a texel of it.
+template <class T, int N, class Visit>
+void footprint_rows(const Texels<T, N>& img, float x, float y, TextureLookup how, Visit&& visit) {
+    int ix, iy, first = 0, count = 1;
+    if (how.interp == TextureLookup::Interp::Closest) {
+        frac(bounded(x * float(img.width)), ix);
+        frac(bounded(y * float(img.height)), iy);
+    } else {
+        footprint(x, img.width, ix);
+        footprint(y, img.height, iy);
+        first = how.interp == TextureLookup::Interp::Cubic ? -1 : 0;
+        count = how.interp == TextureLookup::Interp::Cubic ? 4 : 2;
+    }
+    const auto wrap = [&](int i, int size) {
+        return how.extension == TextureLookup::Extension::Repeat ? wrap_periodic(i, size) : wrap_clamp(i, size);
+    };
+    for (int k = 0; k < count; ++k) {
+        const int row = wrap(iy + first + k, img.height);
+        for (int j = 0; j < count; ++j) visit(img.at(wrap(ix + first + j, img.width), row));
+    }
+}
+
 }  // namespace image_filter
 
 // The first min(channels, 4) filtered values of `image` at Blender's (u, v)
@@ -190,6 +232,28 @@ inline void filter_image(const ImagePixels& image, float u, float v, TextureLook
         case 3: return filter<uint8_t, 3>(image, u, v, how, out);
         default: return filter<uint8_t, 4>(image, u, v, how, out);
     }
+}
+
+// Starts loading the texels filter_image(image, u, v, how) will read, so that
+// a batch of lookups issues all its cache misses before it waits on any.
+// Changes nothing a lookup returns.
+inline void prefetch_image(const ImagePixels& image, float u, float v, TextureLookup how) {
+    using namespace image_filter;
+    const void* last = nullptr;  // neighbouring taps mostly share a line
+    const auto line = [&](const void* p) {
+        if (!last || ((reinterpret_cast<uintptr_t>(p) ^ reinterpret_cast<uintptr_t>(last)) >> 6) != 0)
+            simd::prefetch(p);
+        last = p;
+    };
+    // The texel size alone decides the addresses (channels only widen the stride).
+    if (image.is_float)
+        footprint_rows(Texels<float, 1>{static_cast<const float*>(image.data), image.width, image.height,
+                                        image.channels},
+                       u, v, how, line);
+    else
+        footprint_rows(Texels<uint8_t, 1>{static_cast<const uint8_t*>(image.data), image.width, image.height,
+                                          image.channels},
+                       u, v, how, line);
 }
 
 }  // namespace coherent

@@ -4,6 +4,8 @@
 // and the sRGB decoding Cycles applies to 8-bit textures after filtering.
 #pragma once
 
+#include <bit>
+
 #include <cmath>
 #include <algorithm>
 #include <cstdlib>
@@ -165,6 +167,33 @@ inline float svm_checker(Vec3f p) {
 inline float srgb_to_linear(float c) {
     if (c < 0.04045f) return c < 0.0f ? 0.0f : c * (1.0f / 12.92f);
     return std::pow((c + 0.055f) * (1.0f / 1.055f), 2.4f);
+}
+
+// x^2.4 for 1e-10 < x < 1e10 as Cycles 3.4's CPU kernels compute it
+// (util/color.h, fastpow24_sse2): a guess at x^(4/5) from the float's bits,
+// three Newton steps towards the fifth root of x^4, then cubed. Within 2e-6
+// of powf, and a fraction of its time.
+inline float fastpow24(float a) {
+    // fastpow<4/5>: a * 2^(127/(4/5) - 127) * 0.994^(5/4), its bits read as an
+    // integer, scaled by 4/5 and rounded, read back as a float's bits.
+    const float scaled = a * std::bit_cast<float>(0x4F55A7FBu);
+    float x = std::bit_cast<float>(int32_t(std::nearbyint(float(std::bit_cast<int32_t>(scaled)) *
+                                                          std::bit_cast<float>(0x3F4CCCCDu))));
+    const float a2 = a * a, a4 = a2 * a2;
+    for (int step = 0; step < 3; ++step) {
+        const float x2 = x * x, x4 = x2 * x2;
+        x = (4.0f * x + a4 / x4) * (1.0f / 5.0f);
+    }
+    return x * (x * x);
+}
+
+// sRGB to linear as Cycles converts an Image Texture's filtered colour on the
+// CPU (color_srgb_to_linear_v4, SSE2 path): fastpow24 instead of powf.
+inline float srgb_to_linear_image(float c) {
+    if (c < 0.04045f) return std::max(c * (1.0f / 12.92f), 0.0f);
+    const float a = (c + 0.055f) * (1.0f / 1.055f);
+    // Past fastpow24's domain a^4 overflows, and Cycles' would give NaN.
+    return a < 1e9f ? fastpow24(a) : std::pow(a, 2.4f);
 }
 
 }  // namespace coherent::shader

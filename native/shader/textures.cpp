@@ -247,6 +247,11 @@ void TextureStore::lookup_by(uint32_t index, float u, float v, TextureLookup how
     std::memcpy(rgba, texel, sizeof(texel));
 }
 
+void TextureStore::prefetch(uint32_t index, float u, float v, TextureLookup how) const {
+    const Image* image = index < images_.size() ? images_[index].get() : nullptr;
+    if (image && !image->missing && image->pixels.data) prefetch_image(image->pixels, u, v, how);
+}
+
 size_t TextureStore::memory_bytes() const {
     long long bytes = 0;
     oiio_->ts->imagecache()->getattribute("stat:cache_memory_used", OIIO::TypeDesc::INT64, &bytes);

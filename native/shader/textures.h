@@ -64,6 +64,9 @@ public:
     void lookup(uint32_t image, float u, float v, TextureLookup how, float rgba[4]) const {
         lookup_by(image, u, v, how, rgba, true);
     }
+    // Starts loading the texels lookup(image, u, v, how) reads, when the
+    // image is in memory (files: nothing; OIIO finds its tiles itself).
+    void prefetch(uint32_t image, float u, float v, TextureLookup how) const;
     // The same through OIIO's TextureSystem also for in-memory images: the
     // reference the direct filter is tested against.
     void lookup_through_oiio(uint32_t image, float u, float v, TextureLookup how, float rgba[4]) const {

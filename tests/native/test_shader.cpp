@@ -2,6 +2,7 @@
 // hand-computed values, and the OIIO-backed texture store.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <vector>
 
@@ -57,6 +58,32 @@ TEST(ShaderNodes, HsvRoundTripsAndCheckerAlternates) {
     EXPECT_NEAR(back.y, c.y, 1e-6f);
     EXPECT_NEAR(back.z, c.z, 1e-6f);
     EXPECT_NE(shader::svm_checker({0.5f, 0.5f, 0.5f}), shader::svm_checker({1.5f, 0.5f, 0.5f}));
+}
+
+// Image textures convert sRGB as Cycles' CPU kernels do (fastpow24: a bit
+// trick and three Newton steps instead of powf). Cycles states its error as
+// better than glibc's powf; the oracle here is std::pow in double precision.
+TEST(ShaderNodes, FastPow24AndImageSrgbAgreeWithPow) {
+    double worst = 0.0;
+    for (double x = 1e-8; x < 1e8; x *= 1.0007) {
+        const double exact = std::pow(double(float(x)), 2.4);
+        worst = std::max(worst, std::fabs(double(shader::fastpow24(float(x))) - exact) / exact);
+    }
+    EXPECT_LT(worst, 2e-6);
+    for (int i = 0; i <= 100000; ++i) {
+        const float c = float(i) / 100000.0f;
+        const double exact = c < 0.04045f ? c / 12.92 : std::pow((c + 0.055) / 1.055, 2.4);
+        ASSERT_NEAR(shader::srgb_to_linear_image(c), exact, 2e-6 * exact + 1e-9) << c;
+    }
+    // Outside [0, 1]: black below, and finite far above fastpow24's domain
+    // (float images), where the power of four would overflow.
+    EXPECT_EQ(shader::srgb_to_linear_image(-0.5f), 0.0f);
+    for (float c : {2.0f, 1e3f, 1e9f, 1e12f, 3e38f}) {
+        const float linear = shader::srgb_to_linear_image(c);
+        EXPECT_TRUE(std::isfinite(linear) || c > 1e15f) << c << " -> " << linear;
+        // Past the domain it is powf(x, 2.4f), whose exponent is float(2.4).
+        if (std::isfinite(linear)) EXPECT_NEAR(linear / std::pow((c + 0.055) / 1.055, double(2.4f)), 1.0, 2e-6) << c;
+    }
 }
 
 // A one-triangle scene whose material's emission is a program of its UVs.

@@ -193,6 +193,47 @@ std::vector<std::pair<float, float>> sample_points(int w, int h) {
     return points;
 }
 
+// A batch of lookups first prefetches every lane's footprint
+// (prefetch_image, through image_filter::footprint_rows), so each lane's
+// cache misses overlap the others'. The oracle for what a lookup reads is the
+// filter itself: a texel is read where setting it alone to 1 changes the
+// result. Every such texel's cache line must be among the visited ones, and
+// every visited address must be a texel of the image, at any coordinate.
+TEST(ImageFilter, PrefetchVisitsEveryCacheLineALookupReadsAndNothingOutside) {
+    const int w = 64, h = 6, channels = 4;  // float RGBA: 16-byte texels, four to a 64-byte line
+    std::vector<float> pixels(size_t(w) * h * channels, 0.0f);
+    const ImagePixels image{pixels.data(), w, h, channels, true};
+    const auto line_of = [](const void* p) { return reinterpret_cast<uintptr_t>(p) >> 6; };
+    auto points = sample_points(w, h);
+    for (float u : {NAN, INFINITY, -INFINITY, 3e9f, -3e9f}) points.push_back({u, 0.5f}), points.push_back({0.5f, u});
+    size_t read = 0;
+    for (Interp i : kInterps)
+        for (Extension e : kExtensions)
+            for (const auto& [u, v] : points) {
+                std::vector<uintptr_t> visited;
+                image_filter::footprint_rows(image_filter::Texels<float, 1>{pixels.data(), w, h, channels}, u, v,
+                                             how(i, e), [&](const void* p) {
+                                                 const auto* f = static_cast<const float*>(p);
+                                                 ASSERT_TRUE(f >= pixels.data() && f < pixels.data() + pixels.size())
+                                                     << name(how(i, e)) << " at " << u << ", " << v;
+                                                 visited.push_back(line_of(p));
+                                             });
+                if (!std::isfinite(u) || !std::isfinite(v) || std::fabs(u) > 1e6f || std::fabs(v) > 1e6f) continue;
+                for (size_t t = 0; t < size_t(w) * h; ++t) {
+                    pixels[t * channels] = 1.0f;
+                    float out[4] = {0.0f, 0.0f, 0.0f, 0.0f};
+                    filter_image(image, u, v, how(i, e), out);
+                    pixels[t * channels] = 0.0f;
+                    if (out[0] == 0.0f) continue;
+                    ++read;
+                    EXPECT_NE(std::find(visited.begin(), visited.end(), line_of(&pixels[t * channels])), visited.end())
+                        << name(how(i, e)) << " at " << u << ", " << v << " reads texel " << t % w << ", " << t / w
+                        << " whose line was not prefetched";
+                }
+            }
+    EXPECT_GT(read, 10000u);
+}
+
 // Where the OIIO path is not Cycles and the direct filter is (both asserted
 // above): closest at a texel boundary may pick either texel (OIIO is given
 // t = 1 - v, whose rounding can land across it; at v = 0 exactly it reads the
