@@ -42,6 +42,7 @@ _PASSES = {
     # Denoising (Cycles' names): the feature buffers, and Combined as rendered.
     "Denoising Albedo": ("RGB", "COLOR"),
     "Denoising Normal": ("XYZ", "VECTOR"),
+    "Denoising Depth": ("Z", "VALUE"),
     "Noisy Image": ("RGBA", "COLOR"),
 }
 
@@ -75,7 +76,7 @@ _MIST_FALLOFF = {"QUADRATIC": 2.0, "LINEAR": 1.0, "INVERSE_QUADRATIC": 0.5}
 
 
 def stores_denoising_data(scene, view_layer):
-    """Whether the Denoising Albedo and Normal passes are written: Cycles'
+    """Whether the Denoising Albedo, Normal and Depth passes are written: Cycles'
     View Layer tick (Passes > Data > Denoising Data,
     view_layer.cycles.denoising_store_passes, there while the Cycles add-on
     is enabled), or this engine's scene-wide setting of the same name, which
@@ -376,6 +377,7 @@ class CoherentRenderEngine(bpy.types.RenderEngine):
         if scene is not None and stores_denoising_data(scene, renderlayer):
             self.register_pass(scene, renderlayer, "Denoising Albedo", 3, "RGB", "COLOR")
             self.register_pass(scene, renderlayer, "Denoising Normal", 3, "XYZ", "VECTOR")
+            self.register_pass(scene, renderlayer, "Denoising Depth", 1, "Z", "VALUE")
         if scene is not None and scene.coherent.use_denoising:
             self.register_pass(scene, renderlayer, "Noisy Image", 4, "RGBA", "COLOR")
         for prop, name, chan_id, kind in VIEW_LAYER_PASSES:

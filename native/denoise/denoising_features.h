@@ -1,7 +1,11 @@
-// The denoiser's feature buffers, Denoising Albedo and Denoising Normal, as
+// The denoiser's feature buffers, Denoising Albedo, Normal and Depth, as
 // Cycles 3.4 defines them (kernel/film/passes.h,
 // film_write_denoising_features_surface):
 //
+//   Every hit while the path still looks for its features first adds the
+//   length of the ray segment that reached it times the average of the
+//   feature throughput to the depth: the camera distance of a diffuse first
+//   hit, and through a mirror, the length of the whole reflected path.
 //   At each hit while the path still looks for its features, every BSDF
 //   closure adds its albedo (its weight; a Fresnel-weighted layer times its
 //   Fresnel colour at the view angle) to the diffuse-like sum when its
@@ -22,6 +26,7 @@
 #pragma once
 
 #include <algorithm>
+#include <cmath>
 
 #include "../core/vec.h"
 #include "../render/microfacet.h"
@@ -42,10 +47,14 @@ struct DenoisingFeatureState {
 constexpr float kFeatureDiffuseRoughness = 0.27386128f;
 
 // One hit of a path whose features are pending: a surface with material
-// `mat`, shading normal n (world, facing wo), cos_wo = dot(n, wo). Adds to
-// `albedo` and sets `normal` (camera space) when the search ends here.
-inline void record_surface_features(const Material& mat, const Vec3f& n, float cos_wo, const Camera& camera,
-                                    DenoisingFeatureState& f, Vec3f& albedo, Vec3f& normal) {
+// `mat`, shading normal n (world, facing wo), cos_wo = dot(n, wo), reached
+// by a ray segment of length `segment`. Adds to `depth`, adds to `albedo`
+// and sets `normal` (camera space) when the search ends here.
+inline void record_surface_features(const Material& mat, const Vec3f& n, float cos_wo, float segment,
+                                    const Camera& camera, DenoisingFeatureState& f, Vec3f& albedo, Vec3f& normal,
+                                    float& depth) {
+    const float d = (f.throughput.x + f.throughput.y + f.throughput.z) / 3.0f * segment;
+    if (std::isfinite(d)) depth += d;  // Cycles' ensure_finite: a non-finite write adds 0
     Vec3f diffuse_like(0.0f), specular_like(0.0f);
     float sum_weight = 0.0f, diffuse_weight = 0.0f;
     const auto add = [&](const Vec3f& closure_albedo, bool diffuse) {

@@ -22,6 +22,7 @@ const PassInfo& pass_info(PassType t) {
         {PassType::DenoisingAlbedo, "Denoising Albedo", 3, "RGB"},
         {PassType::DenoisingNormal, "Denoising Normal", 3, "XYZ"},
         {PassType::NoisyImage, "Noisy Image", 4, "RGBA"},
+        {PassType::DenoisingDepth, "Denoising Depth", 1, "Z"},
     };
     if (is_render_pass(t)) {
         // Built once from passes.h's table.
@@ -52,7 +53,7 @@ void Film::clear() {
     heat_.clear();
     heat_count_.clear();
     const bool features = has_denoising_features();
-    albedo_.clear(), albedo_odd_.clear(), dnormal_.clear(), dnormal_odd_.clear();
+    albedo_.clear(), albedo_odd_.clear(), dnormal_.clear(), dnormal_odd_.clear(), ddepth_.clear();
     if (features) enable_denoising_features();
     denoised_.clear();
     const PassMask passes = passes_;
@@ -186,10 +187,13 @@ void Film::enable_denoising_features() {
     const size_t n = size_t(width_) * size_t(height_);
     if (albedo_.size() == 3 * n && n > 0) return;
     for (std::vector<float>* b : {&albedo_, &albedo_odd_, &dnormal_, &dnormal_odd_}) b->assign(3 * n, 0.0f);
+    ddepth_.assign(n, 0.0f);
 }
 
-void Film::add_denoising_features(int x, int y, const Vec3f& albedo, const Vec3f& normal, uint32_t sample) {
-    const size_t i = 3 * (size_t(y) * size_t(width_) + size_t(x));
+void Film::add_denoising_features(int x, int y, const Vec3f& albedo, const Vec3f& normal, float depth,
+                                  uint32_t sample) {
+    const size_t pixel = size_t(y) * size_t(width_) + size_t(x), i = 3 * pixel;
+    ddepth_[pixel] += depth;
     const float a[3] = {albedo.x, albedo.y, albedo.z}, nv[3] = {normal.x, normal.y, normal.z};
     for (int c = 0; c < 3; ++c) {
         albedo_[i + c] += a[c];
@@ -334,6 +338,9 @@ void Film::resolve_into(PassType t, float* out) const {
                 for (int c = 0; c < 3; ++c) out[3 * i + c] = b.empty() ? 0.0f : b[3 * i + c] * inv;
                 break;
             }
+            case PassType::DenoisingDepth:
+                out[i] = ddepth_.empty() ? 0.0f : ddepth_[i] * inv;
+                break;
             case PassType::Depth:
                 out[i] = hits_[i] ? depth_[i] / float(hits_[i]) : kNoHitDepth;
                 break;

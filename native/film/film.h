@@ -18,8 +18,9 @@ namespace coherent {
 // the sample's path), and the mean SIMD lane utilisation, in [0, 1], of the
 // packets that traced the pixel's rays (1 for single rays, which waste no lane).
 //
-// Denoising (Cycles' names): DenoisingAlbedo and DenoisingNormal are the
-// feature buffers of denoise/denoising_features.h (zero unless enabled);
+// Denoising (Cycles' names): DenoisingAlbedo, DenoisingNormal and
+// DenoisingDepth are the feature buffers of denoise/denoising_features.h
+// (zero unless enabled);
 // NoisyImage is Combined as rendered. Combined itself is the denoised image
 // once set_denoised() was called, and NoisyImage otherwise.
 enum class PassType : uint8_t {
@@ -32,6 +33,7 @@ enum class PassType : uint8_t {
     DenoisingAlbedo,
     DenoisingNormal,
     NoisyImage,
+    DenoisingDepth,
     // Cycles' light and data passes follow, one per RenderPass in its order
     // (passes.h, the one list of them): pass_type() names them.
     FirstRenderPass
@@ -109,11 +111,13 @@ public:
 
     // Denoising features: enable_denoising_features() allocates them (before
     // rendering, like the heatmaps); add_denoising_features() adds one
-    // sample's albedo and camera-space normal, the odd passes also to an odd
-    // half (the denoiser weighs feature differences against their noise).
+    // sample's albedo, camera-space normal and feature depth, the odd passes'
+    // albedo and normal also to an odd half (the denoiser weighs feature
+    // differences against their noise).
     void enable_denoising_features();
     bool has_denoising_features() const { return !albedo_.empty(); }
-    void add_denoising_features(int x, int y, const Vec3f& albedo, const Vec3f& normal, uint32_t sample);
+    void add_denoising_features(int x, int y, const Vec3f& albedo, const Vec3f& normal, float depth,
+                                uint32_t sample);
 
     // The accumulation buffers as the denoiser reads them: per pixel i,
     // sums over all samples and over the odd passes' samples (rgba: 4 floats
@@ -173,8 +177,8 @@ private:
     std::vector<uint32_t> count_odd_;  // odd-pass samples per pixel
     std::vector<float> heat_;     // 2 per pixel: sums of node visits, SIMD utilisation
     std::vector<uint32_t> heat_count_;  // heatmap samples per pixel
-    // Denoising features, sums (3 per pixel); empty unless enabled.
-    std::vector<float> albedo_, albedo_odd_, dnormal_, dnormal_odd_;
+    // Denoising features, sums (3 per pixel; depth 1); empty unless enabled.
+    std::vector<float> albedo_, albedo_odd_, dnormal_, dnormal_odd_, ddepth_;
     std::vector<float> denoised_;  // 3 per pixel; empty until set_denoised()
     PassMask passes_ = 0;
     std::vector<float> pass_sums_[kRenderPassCount];  // channels per pixel; empty unless enabled

@@ -31,7 +31,8 @@ constexpr float kBlenderNoDepth = 1e10f;
 
 constexpr PassType kPassTypes[] = {PassType::Combined,        PassType::Depth,           PassType::Normal,
                                    PassType::Error,           PassType::NodeVisits,      PassType::SimdUtilisation,
-                                   PassType::DenoisingAlbedo, PassType::DenoisingNormal, PassType::NoisyImage};
+                                   PassType::DenoisingAlbedo, PassType::DenoisingNormal, PassType::NoisyImage,
+                                   PassType::DenoisingDepth};
 
 PassType pass_from_name(const std::string& name) {
     for (PassType t : kPassTypes)

@@ -68,6 +68,7 @@ struct PathOutput {
     // Denoising features (denoise/denoising_features.h); 0 unless requested.
     Vec3f albedo{0.0f};
     Vec3f denoising_normal{0.0f};
+    float denoising_depth = 0.0f;
     PassSample passes;  // Cycles' passes (film/passes.h); 0 unless enabled
 };
 
@@ -725,8 +726,8 @@ inline void shade_hit(const PathContext& ctx, const PathSampler& ps, PathState& 
     const Material& mat = pre && pre->material ? *pre->material : material_at(ctx, s, hit, sp, scratch);
     if (s.features.pending) {
         record_emission_feature(s.features, mat.emission, s.out.albedo);
-        record_surface_features(mat, sp.n, dot(sp.n, sp.wo), scene.camera, s.features, s.out.albedo,
-                                s.out.denoising_normal);
+        record_surface_features(mat, sp.n, dot(sp.n, sp.wo), sp.t - s.ray.tmin, scene.camera, s.features, s.out.albedo,
+                                s.out.denoising_normal, s.out.denoising_depth);
     }
     if (scene.features.holdout && apply_holdout(s, mat)) return;
     if (mat.is_emissive()) add_emission<kLights>(ctx, s, mat, sp);

@@ -70,9 +70,10 @@ struct TileJob {
         film->add_sample(x - border_x0, y - border_y0, o.radiance, o.alpha, o.depth, o.normal, sample);
         if (heatmaps) film->add_heatmap_sample(x - border_x0, y - border_y0, node_visits, simd_utilisation);
         if (denoising_features) {
-            const bool ok = is_finite(o.albedo) && is_finite(o.denoising_normal);
+            const bool ok = is_finite(o.albedo) && is_finite(o.denoising_normal) && std::isfinite(o.denoising_depth);
             film->add_denoising_features(x - border_x0, y - border_y0, ok ? o.albedo : Vec3f(0.0f),
-                                         ok ? o.denoising_normal : Vec3f(0.0f), sample);
+                                         ok ? o.denoising_normal : Vec3f(0.0f), ok ? o.denoising_depth : 0.0f,
+                                         sample);
         }
         if (passes) add_passes(x, y, sample, o.passes, st);
         ++st.samples;

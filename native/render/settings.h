@@ -134,7 +134,7 @@ struct RenderSettings {
     // Denoising (denoise/): after the last pass, Combined is replaced by the
     // denoised image (the noisy one stays in the Noisy Image pass).
     // denoise_strength scales the filter's colour tolerance (1 = as tuned).
-    // denoising_data fills the feature passes (Denoising Albedo, Denoising
+    // denoising_data fills the feature passes (Denoising Albedo, Depth and
     // Normal) without denoising; either costs three more buffers per half.
     bool denoise = false;
     float denoise_strength = 1.0f;

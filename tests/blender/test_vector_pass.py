@@ -14,7 +14,8 @@
 # less on the others; the mean error per object must stay under 0.1 pixels. A sign, axis, frame or
 # projection mix-up fails by whole pixels.
 # The same renders tick Cycles' View Layer "Denoising Data" (not our
-# scene-wide setting): both engines then write Denoising Albedo and Normal.
+# scene-wide setting): both engines then write Denoising Albedo, Normal and
+# Depth, and the Depth one is compared per pixel like the vectors.
 
 import numpy as np
 import pytest
@@ -56,3 +57,23 @@ def test_view_layer_denoising_data_tick_writes_the_feature_passes(renders):
         albedo = bh.find_channels(renders[engine], "Denoising Albedo", "RGB")
         normal = bh.find_channels(renders[engine], "Denoising Normal", "XYZ")
         assert albedo.max() > 0.1 and np.abs(normal).max() > 0.5, engine
+
+
+def test_denoising_depth_matches_cycles_per_pixel(renders):
+    # Denoising Depth is the camera ray's length to these diffuse objects
+    # (each feature segment's length times the feature throughput, 1 here),
+    # not the Depth pass's view-axis distance. Cycles samples pixel centres,
+    # ours spread over the pixel: half a neighbour step is allowed.
+    ours, theirs = renders["coherent"], renders["cycles"]
+    index = bh.find_channels(theirs, "IndexOB", "X")[..., 0]
+    same = bh.find_channels(ours, "IndexOB", "X")[..., 0] == index
+    a = bh.find_channels(ours, "Denoising Depth", "Z")[..., 0].astype(np.float64)
+    b = bh.find_channels(theirs, "Denoising Depth", "Z")[..., 0].astype(np.float64)
+    z = bh.find_channels(theirs, "Depth", "Z")[..., 0].astype(np.float64)
+    inside = interior(index) & same & (index > 0)
+    assert inside.sum() > 900
+    assert (b[inside] > z[inside] * (1 + 1e-4)).mean() > 0.5  # off-axis rays are longer than their view depth
+    err = np.abs(a - b)
+    allowed = 0.5 * neighbour_step(b) + 1e-3 * b
+    assert (err[inside] <= allowed[inside]).all(), float((err - allowed)[inside].max())
+    assert (a[interior(index) & (index == 0)] == 0.0).all()  # the world writes no depth

@@ -79,6 +79,7 @@ render.image_settings.color_depth = "32"
 view_layer = scene.view_layers[0]
 view_layer.use_pass_vector = True
 view_layer.use_pass_object_index = True
+view_layer.use_pass_z = True  # against Denoising Depth, which is a ray length, not a view depth
 view_layer.cycles.denoising_store_passes = True  # Cycles' tick only: scene.coherent's stays off
 assert not scene.coherent.use_pass_denoising_data
 configure_cycles_reference(scene, samples).filter_width = 0.01

@@ -19,6 +19,9 @@
 namespace coherent {
 namespace {
 
+using test::add_quad;
+using test::ortho_camera_looking_down;
+using test::principled;
 using test::render_combined;
 using test::sphere_on_floor_scene;
 
@@ -44,7 +47,7 @@ Film noisy_film(int spp, uint32_t seed) {
             for (int x = 0; x < kSize; ++x) {
                 const Vec3f n(0.0f, 0.0f, -1.0f);
                 film.add_sample(x, y, exact_pixel(x, y) * noise(rng), 1.0f, 1.0f, n, uint32_t(pass));
-                film.add_denoising_features(x, y, exact_albedo(x, y), n, uint32_t(pass));
+                film.add_denoising_features(x, y, exact_albedo(x, y), n, 0.0f, uint32_t(pass));
             }
     return film;
 }
@@ -141,7 +144,7 @@ TEST(Denoise, KeepsIsolatedHighlightsSeenInBothHalves) {
         for (int y = 0; y < kSize; ++y)
             for (int x = 0; x < kSize; ++x) {
                 film.add_sample(x, y, Vec3f(exact(x, y) * noise(rng)), 1.0f, 1.0f, n, uint32_t(pass));
-                film.add_denoising_features(x, y, albedo, n, uint32_t(pass));
+                film.add_denoising_features(x, y, albedo, n, 0.0f, uint32_t(pass));
             }
     const DenoiseResult d = denoise(film);
     ASSERT_EQ(d.rgb.size(), size_t(3 * kSize * kSize));
@@ -177,7 +180,7 @@ TEST(Denoise, DepthKeepsASilhouetteThatNormalAndAlbedoDoNotSee) {
                 for (int x = 0; x < kSize; ++x) {
                     const float depth = inside(x, y) ? near : far;
                     film.add_sample(x, y, Vec3f(exact(x, y) * noise(rng)), 1.0f, depth, n, uint32_t(pass));
-                    film.add_denoising_features(x, y, albedo, n, uint32_t(pass));
+                    film.add_denoising_features(x, y, albedo, n, 0.0f, uint32_t(pass));
                 }
         return film;
     };
@@ -211,7 +214,7 @@ TEST(Denoise, BlackImageStaysBlackWithZeroError) {
         for (int y = 0; y < 12; ++y)
             for (int x = 0; x < 16; ++x) {
                 film.add_sample(x, y, Vec3f(0.0f), 1.0f, kInf, Vec3f(0.0f), pass);
-                film.add_denoising_features(x, y, Vec3f(0.0f), Vec3f(0.0f), pass);
+                film.add_denoising_features(x, y, Vec3f(0.0f), Vec3f(0.0f), 0.0f, pass);
             }
     const DenoiseResult d = denoise(film);
     ASSERT_EQ(d.rgb.size(), size_t(3 * 16 * 12));
@@ -307,6 +310,42 @@ TEST(DenoiseRender, NoisyImageIsTheUndenoisedRenderAndFeaturesAreFilled) {
     EXPECT_GT(red, 20);
     EXPECT_GT(grey, 100);
     for (float v : r.film().resolve(PassType::Combined)) EXPECT_TRUE(std::isfinite(v));
+}
+
+// Denoising Depth as Cycles 3.4 writes it: every hit while the features are
+// pending adds its ray segment's length times the average feature
+// throughput. Orthographic camera 5 above the floor: a diffuse floor reads 5
+// (less the near clip distance) in every pixel; a coloured mirror floor
+// (metallic, roughness 0: its Fresnel colour at normal incidence is its base
+// colour) passes the search on to a diffuse ceiling 8 above it, adding
+// 8 x mean(base colour).
+TEST(DenoiseRender, DenoisingDepthAddsEverySegmentWeightedByTheFeatureThroughput) {
+    for (bool mirror : {false, true}) {
+        Scene s;
+        Material floor = principled(0.7f, mirror ? 1.0f : 0.0f, mirror ? 0.0f : 0.5f, 0.5f, 0.0f);
+        if (mirror) floor.closures[0].base_color = {0.9f, 0.6f, 0.3f};
+        add_quad(s, {0, 0, 0}, {1, 0, 0}, {0, 1, 0}, 20, 20, s.add_material(floor), "floor");
+        add_quad(s, {0, 0, 8}, {0, 1, 0}, {1, 0, 0}, 20, 20, s.add_material(principled(0.5f, 0.0f, 0.5f, 0.5f, 0.0f)),
+                 "ceiling");  // faces down
+        s.world_color = Vec3f(0.2f);
+        s.camera = ortho_camera_looking_down(5.0f, 2.0f);
+        s.finalize();
+        RenderSettings rs = small_settings(false);
+        rs.denoising_data = true;
+        Renderer r(s, rs);
+        ASSERT_TRUE(r.render());
+        // Camera rays start at the near clip plane, as Cycles' do.
+        const float first = 5.0f - s.camera.clip_start;
+        const float expected = mirror ? first + 8.0f * (0.9f + 0.6f + 0.3f) / 3.0f : first;
+        const std::vector<float> depth = r.film().resolve(PassType::DenoisingDepth);
+        ASSERT_EQ(depth.size(), size_t(24 * 24));
+        for (float d : depth) ASSERT_NEAR(d, expected, 1e-4f) << (mirror ? "mirror" : "diffuse");
+    }
+    // Without the features requested the pass costs nothing and reads 0.
+    const Scene scene = sphere_on_floor_scene();
+    Renderer plain(scene, small_settings(false));
+    plain.render();
+    for (float d : plain.film().resolve(PassType::DenoisingDepth)) EXPECT_EQ(d, 0.0f);
 }
 
 // A rendered scene against a reference of 2 x 2048 spp (other seeds), the

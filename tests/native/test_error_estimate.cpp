@@ -176,7 +176,9 @@ TEST(ErrorEstimate, AutoTakesOneScrambleWithLessErrorAndNoEstimate) {
             for (int k = 0; k < sc.seeds; ++k) {
                 Renderer r(sc.scene, base_settings(64, st, test::test_seed(7 + 101 * uint64_t(k)), estimate));
                 ASSERT_TRUE(r.render());
-                if (mode == 1) EXPECT_LT(r.stats().error_estimate, 0.0) << "Auto reports no estimate";
+                if (mode == 1) {
+                    EXPECT_LT(r.stats().error_estimate, 0.0) << "Auto reports no estimate";
+                }
                 const double e = r.film().relative_rmse_estimate();
                 const double t = true_relative_rmse(r.film().resolve(PassType::Combined), sc.reference);
                 e2[mode] += e * e / sc.seeds;
