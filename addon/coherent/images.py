@@ -43,9 +43,47 @@ def _in_memory_only(image):
     return image.source != "FILE" or image.packed_file is not None or image.is_dirty
 
 
-def _associated_on_load(image):
+def _file_path(image):
+    import bpy  # only here: the rest of the add-on's material code is bpy-free
+    return bpy.path.native_pathsep(bpy.path.abspath(image.filepath_raw, library=image.library))
+
+
+# Reading Image.is_float or Image.channels makes Blender decode a file image,
+# and Blender frees decoded images again (after a Cycles render, for one):
+# 0.4 s a render for 40 MB of PNGs (docs/results/textured_twin.md). For the
+# file types below the header settles what the add-on needs, as Blender 3.4
+# loads them (tests/blender/test_image_headers.py): a file of 8-bit values
+# becomes a 4-channel byte image, a wider one a float image (whose channel
+# count Blender decides on load: 4 for an RGB EXR or a grey 16-bit PNG).
+_HEADER_TYPES = (".png", ".jpg", ".jpeg", ".tif", ".tiff", ".exr", ".hdr")
+_headers = {}  # (path, size, mtime) -> image_file_format() of the file
+
+
+def blender_format(image, read_header=None):
+    """(is_float, channels) as Blender reports them for `image`; from the file's header
+    (`read_header`: _coherent.image_file_format) for an unedited file image of a type in
+    _HEADER_TYPES, without decoding it, where channels is None for a float image; else from
+    Blender."""
+    if read_header is not None and not _in_memory_only(image):
+        path = _file_path(image)
+        if path.lower().endswith(_HEADER_TYPES):
+            try:
+                stat = os.stat(path)
+            except OSError:
+                stat = None
+            if stat is not None:
+                key = (path, stat.st_size, stat.st_mtime_ns)
+                if key not in _headers:
+                    _headers[key] = read_header(path)
+                header = _headers[key]
+                if header is not None:
+                    return (True, None) if header["wide"] else (False, 4)
+    return bool(image.is_float), int(image.channels)
+
+
+def _associated_on_load(image, is_float, channels):
     """Whether Cycles associates this image's texels when it loads them: a straight byte colour image."""
-    return (image.alpha_mode == "STRAIGHT" and not image.is_float and image.channels == 4
+    return (image.alpha_mode == "STRAIGHT" and not is_float and channels == 4
             and image.colorspace_settings.name not in DATA_COLORSPACES)
 
 
@@ -70,9 +108,14 @@ def _identity(image):
 class ImageExporter:
     """Adds each bpy image once to a native scene and remembers its index."""
 
-    def __init__(self, native_scene):
+    def __init__(self, native_scene, read_header=None):
         self.scene = native_scene
+        self.read_header = read_header  # _coherent.image_file_format, None: ask Blender
         self._indices = {}
+
+    def is_float(self, image):
+        """Image.is_float, from the file's header where that avoids a decode (blender_format)."""
+        return blender_format(image, self.read_header)[0]
 
     def index_of(self, image, material, node):
         key = image.original.as_pointer() if getattr(image, "original", None) is not None else image.as_pointer()
@@ -84,11 +127,10 @@ class ImageExporter:
         return index
 
     def _add(self, image, label):
-        associate = _associated_on_load(image)
+        associate = _associated_on_load(image, *blender_format(image, self.read_header))
         path = None
         if not _in_memory_only(image):
-            import bpy  # only here: the rest of the add-on's material code is bpy-free
-            path = bpy.path.native_pathsep(bpy.path.abspath(image.filepath_raw, library=image.library))
+            path = _file_path(image)
             if not associate:
                 return self.scene.add_image(label, path=path)
         version = _version(image, path)

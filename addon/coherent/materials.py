@@ -189,7 +189,8 @@ class MaterialConverter:
         self._graph = shader_compiler.GraphCompiler(
             builder, lambda text: self._warn(material, text),
             (lambda image, node: self.images.index_of(image, material, node)) if self.images else
-            (lambda image, node: self._no_images(material, node)), self._uv_index_for(builder), self.color_index)
+            (lambda image, node: self._no_images(material, node)), self._uv_index_for(builder), self.color_index,
+            image_is_float=self.images.is_float if self.images else None)
         self._builder = builder
         flat = _Flattened(builder)
         if material.use_nodes and material.node_tree is not None:

@@ -206,12 +206,14 @@ class GraphCompiler:
     image_index(image, node) -> scene image index: registers an image.
     uv_index(name) -> UV layer index ("" = the active render UV map).
     color_index(name) -> colour attribute index ("" = the render colour attribute); None: not exported.
+    image_is_float(image) -> Image.is_float without a decode where possible; None: read Image.is_float.
     """
 
-    def __init__(self, builder, warn, image_index, uv_index, color_index=None):
+    def __init__(self, builder, warn, image_index, uv_index, color_index=None, image_is_float=None):
         self.b = builder
         self.warn = warn
         self.image_index = image_index
+        self.image_is_float = image_is_float
         self.uv_index = uv_index
         self.color_index = color_index
         self._cache = {}          # (group path, node pointer, output name, bump axis) -> value
@@ -495,15 +497,18 @@ def _checker(gc, node, out):
 DATA_COLORSPACES = ("Non-Color", "Raw")
 
 
-def image_flags(node, image, alpha_linked):
+def image_flags(node, image, alpha_linked, is_float=None):
     """ImageTexture mode bits for an Image Texture node (Cycles' image flags). Straight colour texels
     are associated when handed over (images.py), as Cycles associates them on load, so both Straight
-    and Premultiplied images are unassociated after filtering when Alpha is used (NODE_IMAGE_ALPHA_UNASSOCIATE)."""
+    and Premultiplied images are unassociated after filtering when Alpha is used (NODE_IMAGE_ALPHA_UNASSOCIATE).
+    is_float: the image's Image.is_float when known without asking Blender (images.blender_format)."""
     flags = IMAGE_INTERPOLATION.get(node.interpolation, 0)
     flags |= IMAGE_EXTENSION.get(node.extension, 0) << 2
     colorspace = image.colorspace_settings.name if image is not None else "sRGB"
     is_data = colorspace in DATA_COLORSPACES
-    if colorspace == "sRGB" and not getattr(image, "is_float", False):
+    if is_float is None:
+        is_float = getattr(image, "is_float", False)
+    if colorspace == "sRGB" and not is_float:
         flags |= IMAGE_SRGB
     alpha_mode = getattr(image, "alpha_mode", "STRAIGHT")
     if alpha_mode == "NONE":
@@ -523,7 +528,8 @@ def _image(gc, node, out):
     index = gc.image_index(image, node)
     vector = _texture_vector(gc, node, TEX_COORDS["UV"])
     alpha_linked = node.outputs["Alpha"].is_linked
-    color, alpha = gc.b.emit("IMAGE_TEXTURE", image_flags(node, image, alpha_linked), [(vector, 3)], (3, 1),
+    is_float = gc.image_is_float(image) if gc.image_is_float is not None else None
+    color, alpha = gc.b.emit("IMAGE_TEXTURE", image_flags(node, image, alpha_linked, is_float), [(vector, 3)], (3, 1),
                              data=index)
     return alpha if out.identifier == "Alpha" else color
 

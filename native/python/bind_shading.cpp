@@ -234,6 +234,19 @@ in texture_stats()['warnings'] under `label`.)doc");
               "Adds the image an earlier add_image retained under `key` (its pixels not handed over again); "
               "returns its index, or None when no image is held under that key.");
     m.def(
+        "image_file_format",
+        [](const std::string& path) -> py::object {
+            ImageFileFormat f;
+            if (!read_image_file_format(path, f)) return py::none();
+            py::dict d;
+            d["channels"] = f.channels;
+            d["wide"] = f.wide;
+            return d;
+        },
+        py::arg("path"),
+        "{'channels', 'wide'} from an image file's header (OpenImageIO, no pixels decoded); 'wide': values of "
+        "more than 8 bits, which Blender holds as float. None when the file cannot be opened.");
+    m.def(
         "fold_shader_constants",
         [](const py::dict& program) {
             ShaderProgram p;

@@ -252,6 +252,19 @@ void TextureStore::prefetch(uint32_t index, float u, float v, TextureLookup how)
     if (image && !image->missing && image->pixels.data) prefetch_image(image->pixels, u, v, how);
 }
 
+bool read_image_file_format(const std::string& path, ImageFileFormat& format) {
+    auto in = OIIO::ImageInput::open(path);
+    if (!in) {
+        (void)OIIO::geterror();  // clear OIIO's per-thread message; the caller decides what to say
+        return false;
+    }
+    const OIIO::ImageSpec& spec = in->spec();
+    format.channels = spec.nchannels;
+    format.wide = spec.format.size() > 1;
+    in->close();
+    return true;
+}
+
 size_t TextureStore::memory_bytes() const {
     long long bytes = 0;
     oiio_->ts->imagecache()->getattribute("stat:cache_memory_used", OIIO::TypeDesc::INT64, &bytes);

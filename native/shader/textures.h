@@ -34,6 +34,16 @@ struct TextureLookup {
 
 struct PixelBuffer;  // memory_images.h
 
+// What an image file's header says, read without decoding its pixels: the
+// channel count, and whether its values are wider than 8 bits (Blender then
+// holds the image as float: 16-bit PNG and TIFF, EXR, HDR).
+struct ImageFileFormat {
+    int channels = 0;
+    bool wide = false;
+};
+// False (and `format` untouched) when OpenImageIO cannot open the file.
+bool read_image_file_format(const std::string& path, ImageFileFormat& format);
+
 // Cycles' colour of a missing image.
 constexpr float kMissingTexture[4] = {1.0f, 0.0f, 1.0f, 1.0f};
 
