@@ -162,13 +162,18 @@ bool write_film(const std::string& path, const Film& film, std::string& error) {
     passes.depth = depth.data();
     passes.normal = normal.data();
     std::vector<std::vector<float>> resolved;
-    resolved.reserve(kRenderPassCount);
-    for (int i = 0; i < kRenderPassCount; ++i) {
-        if (!(film.passes() & pass_bit(RenderPass(i)))) continue;
-        const RenderPassInfo& info = render_pass_info(RenderPass(i));
-        resolved.push_back(film.resolve(pass_type(RenderPass(i))));
+    resolved.reserve(kPassTypeCount);
+    const auto add_layer = [&](PassType t) {
+        const PassInfo& info = pass_info(t);
+        resolved.push_back(film.resolve(t));
         passes.layers.push_back({info.name, info.chan_id, resolved.back().data()});
-    }
+    };
+    for (int i = 0; i < kRenderPassCount; ++i)
+        if (film.passes() & pass_bit(RenderPass(i))) add_layer(pass_type(RenderPass(i)));
+    // What denoising kept (--denoise, --denoising-data), under Cycles' names.
+    if (film.has_denoising_features())
+        for (PassType t : {PassType::DenoisingNormal, PassType::DenoisingAlbedo, PassType::DenoisingDepth}) add_layer(t);
+    if (film.denoised()) add_layer(PassType::NoisyImage);
     return write_image(path, passes, error);
 }
 

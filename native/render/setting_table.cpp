@@ -160,7 +160,8 @@ std::vector<SettingSpec> sampling_rows() {
                      "how different (in units of the estimated noise) neighbouring pixels may be and still be "
                      "averaged; higher is smoother, 0 keeps only pixels identical within noise"));
     t.push_back(flag("denoising_data", "Denoising Data", "Sampling", &RenderSettings::denoising_data,
-                     "fill the 'Denoising Albedo' and 'Denoising Normal' passes (also filled when denoising)"));
+                     "fill the 'Denoising Albedo', 'Denoising Normal' and 'Denoising Depth' passes (also filled "
+                     "when denoising)"));
     t.push_back(flag("progressive_display", "Progressive Display", "Sampling", &RenderSettings::progressive_display,
                      "a front end shows sample passes as they finish (the viewport); makes the Auto sampler pick "
                      "ICPT"));

@@ -35,3 +35,30 @@ def test_unknown_pass_and_png_are_usage_errors(cli, cornell, tmp_path):
     assert r.returncode == 2 and one_line(r.stderr) and "'shiny'" in r.stderr, r.stderr
     r = run(cli, "render", cornell, "-o", tmp_path / "a.png", "--passes", "mist")
     assert r.returncode == 2 and one_line(r.stderr) and ".exr" in r.stderr, r.stderr
+
+
+def test_denoising_writes_its_features_and_the_noisy_image(cli, cornell, tmp_path):
+    # --denoise keeps the image before denoising and the features it used, as
+    # Blender's passes do; --denoising-data alone writes the features; a plain
+    # render writes neither.
+    features = [("Denoising Normal", "XYZ"), ("Denoising Albedo", "RGB"), ("Denoising Depth", "Z")]
+    out = tmp_path / "denoised.exr"
+    r = run(cli, "render", cornell, "-o", out, "--res", 24, 24, "--spp", 4, "--denoise")
+    assert r.returncode == 0, r.stderr
+    _, _, channels = oiio_info(out)
+    for layer, ids in features + [("Noisy Image", "RGBA")]:
+        for c in ids:
+            assert f"{layer}.{c}" in channels, channels
+    index = {c: i for i, c in enumerate(channels)}
+    pixels = list(oiio_pixels(out).values())
+    depths = [v[index["Denoising Depth.Z"]] for v in pixels]
+    assert min(depths) >= 0.0 and max(depths) > 1.0, (min(depths), max(depths))  # the box is metres deep
+    assert any(abs(v[index["Noisy Image.R"]] - v[index["R"]]) > 1e-6 for v in pixels)  # denoising changed R
+    r = run(cli, "render", cornell, "-o", tmp_path / "data.exr", "--res", 24, 24, "--spp", 4, "--denoising-data")
+    assert r.returncode == 0, r.stderr
+    _, _, channels = oiio_info(tmp_path / "data.exr")
+    assert "Denoising Depth.Z" in channels and "Noisy Image.R" not in channels, channels
+    r = run(cli, "render", cornell, "-o", tmp_path / "plain.exr", "--res", 24, 24, "--spp", 4)
+    assert r.returncode == 0, r.stderr
+    _, _, channels = oiio_info(tmp_path / "plain.exr")
+    assert not any(c.startswith(("Denoising", "Noisy")) for c in channels), channels
