@@ -508,8 +508,8 @@ private:
 
 // Renders passes [first, first + count) of every tile of `layout` inside
 // `arena`, statistics per thread, summed into `stats` at the end.
-// on_progress(tile passes done so far) runs after each tile pass, on the
-// thread that rendered it.
+// on_progress(tile passes done so far) runs after each kernel call (a tile
+// pass, or a pixel-run kernel's run of them), on the thread that made it.
 template <class OnProgress>
 void render_batch(tbb::task_arena& arena, const TileLayout& layout, const TileJob& batch_job, int first, int count,
                   const RenderSettings& rs, RenderStats& stats, OnProgress&& on_progress) {
@@ -522,18 +522,14 @@ void render_batch(tbb::task_arena& arena, const TileLayout& layout, const TileJo
             int tile = 0, pass = 0, n = 0;
             while (!batch_job.cancelled->load(std::memory_order_relaxed) && queue.claim(tile, pass, n)) {
                 TileJob job = place_tile(batch_job, layout, tile, rs);
+                // Pixel-run kernels take the whole run in one call, the others a pass per call.
+                const int step = layout.pixel_runs ? n : 1;
                 int ran = 0;
-                if (layout.pixel_runs) {  // the run's passes in one call, pixel by pixel
-                    job.sample = uint32_t(first + pass);
-                    job.samples = uint32_t(n);
-                    layout.kernel(job, st);
-                    ran = n;
-                    on_progress(done.fetch_add(n, std::memory_order_relaxed) + n);
-                }
-                for (; ran < n && !batch_job.cancelled->load(std::memory_order_relaxed); ++ran) {
+                for (; ran < n && !batch_job.cancelled->load(std::memory_order_relaxed); ran += step) {
                     job.sample = uint32_t(first + pass + ran);
+                    job.samples = uint32_t(step);
                     layout.kernel(job, st);
-                    on_progress(done.fetch_add(1, std::memory_order_relaxed) + 1);
+                    on_progress(done.fetch_add(step, std::memory_order_relaxed) + step);
                 }
                 queue.release(tile, ran);
             }
