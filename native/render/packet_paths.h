@@ -24,6 +24,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <utility>
 #include <vector>
 
 #include "../accel/ray_packet.h"
@@ -41,6 +42,7 @@ struct PathTile {
     std::vector<PathSampler> samplers;
     std::vector<int> px, py;
     std::vector<int> packet_begin;  // packets + 1 entries
+    std::vector<SharedSets> shared_sets;  // per packet (share_numbers)
     // Heatmaps: node visits per path, and the SIMD lanes (all / active) of
     // the packets its rays were traced in.
     std::vector<uint32_t> node_visits;
@@ -61,6 +63,26 @@ struct PathTile {
     void end_packet() {
         if (int(size()) > packet_begin.back()) packet_begin.push_back(int(size()));
     }
+    // Where a packet's pixels all lie in one of the sampler's shared blocks
+    // (CPT, ImageSampler::shared_stream_block), their paths read identical
+    // numbers: each set is then drawn once per packet (SharedSets) instead
+    // of once per path. Call once every path is started (one sample per tile).
+    void share_numbers(const ImageSampler& sampler) {
+        const ImageSampler::SharedBlock block = sampler.shared_stream_block();
+        shared_sets.clear();
+        if (block.width == 0 || block.height == 0) return;
+        shared_sets.resize(size_t(packets()));
+        const auto block_of = [&](size_t p) {
+            return std::pair(uint32_t(px[p]) / block.width, uint32_t(py[p]) / block.height);
+        };
+        for (int k = 0; k < packets(); ++k) {
+            const auto first = size_t(packet_begin[size_t(k)]), end = size_t(packet_begin[size_t(k) + 1]);
+            bool one_block = true;
+            for (size_t p = first + 1; p < end && one_block; ++p) one_block = block_of(p) == block_of(first);
+            if (!one_block) continue;
+            for (size_t p = first; p < end; ++p) samplers[p].share(&shared_sets[size_t(k)]);
+        }
+    }
     // Heatmaps: per-path counters, zeroed (call once every path is started).
     void enable_heatmaps() {
         node_visits.assign(size(), 0);
@@ -74,6 +96,7 @@ struct PathTile {
         px.clear();
         py.clear();
         packet_begin.assign(1, 0);
+        shared_sets.clear();
         node_visits.clear();
         lanes.clear();
         lanes_active.clear();

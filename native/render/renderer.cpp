@@ -92,24 +92,49 @@ struct TileJob {
 // Single rays: each pixel's paths depth-first (path_tracer.h), the call's
 // samples of one pixel one after another, as Cycles' CPU kernel takes them:
 // the texels and BVH nodes a pixel's paths touch are still in cache for its
-// next sample, where a pass over the tile would have evicted them. Returns
-// early on cancel.
+// next sample, where a pass over the tile would have evicted them.
+// Where pixels share their random numbers (CPT's packets,
+// ImageSampler::shared_stream_block), the tile is walked block by block:
+// each sample's stream is resolved once per block, and each of its sets is
+// drawn by the first of the block's paths that reads it (SharedSets). The
+// same numbers either way, so the same image. Returns early on cancel.
 template <bool kGlass, bool kDepthOfField, bool kLights>
 void render_tile(const TileJob& job, RenderStats& st) {
-    for (int y = job.y0; y < job.y1; ++y) {
-        if (job.cancelled->load(std::memory_order_relaxed)) return;
-        for (int x = job.x0; x < job.x1; ++x) {
-            if (job.skip(x, y)) continue;
-            for (uint32_t sample = job.sample; sample < job.sample + job.samples; ++sample) {
-                const PathSampler ps(*job.sampler, uint32_t(x), uint32_t(y), sample);
-                uint32_t visits = 0;
-                const PathOutput o = trace_path<kGlass, kDepthOfField, kLights>(*job.ctx, ps, x, y, st,
-                                                                                job.heatmaps ? &visits : nullptr);
-                // Single rays use every lane they have: utilisation 1.
-                job.add(x, y, sample, o, float(visits), 1.0f, st);
+    const ImageSampler::SharedBlock shared = job.sampler->shared_stream_block();
+    const bool share = shared.width > 0 && shared.height > 0;
+    // Without sharing, a block is one row of the tile.
+    const int bw = share ? int(shared.width) : job.x1 - job.x0;
+    const int bh = share ? int(shared.height) : 1;
+    std::vector<SampleStream> streams;
+    std::vector<SharedSets> sets(share ? job.samples : 0);
+    for (int by = share ? job.y0 - job.y0 % bh : job.y0; by < job.y1; by += bh)
+        for (int bx = share ? job.x0 - job.x0 % bw : job.x0; bx < job.x1; bx += bw) {
+            if (job.cancelled->load(std::memory_order_relaxed)) return;
+            const int x0 = std::max(bx, job.x0), x1 = std::min(bx + bw, job.x1);
+            const int y0 = std::max(by, job.y0), y1 = std::min(by + bh, job.y1);
+            if (share) {
+                streams.clear();
+                for (uint32_t i = 0; i < job.samples; ++i) {
+                    streams.push_back(job.sampler->stream(uint32_t(x0), uint32_t(y0), job.sample + i));
+                    sets[i].filled = 0;
+                    streams.back().share(&sets[i]);
+                }
             }
+            for (int y = y0; y < y1; ++y)
+                for (int x = x0; x < x1; ++x) {
+                    if (job.skip(x, y)) continue;
+                    for (uint32_t i = 0; i < job.samples; ++i) {
+                        const uint32_t sample = job.sample + i;
+                        const PathSampler ps = share ? PathSampler(streams[i])
+                                                     : PathSampler(*job.sampler, uint32_t(x), uint32_t(y), sample);
+                        uint32_t visits = 0;
+                        const PathOutput o = trace_path<kGlass, kDepthOfField, kLights>(
+                            *job.ctx, ps, x, y, st, job.heatmaps ? &visits : nullptr);
+                        // Single rays use every lane they have: utilisation 1.
+                        job.add(x, y, sample, o, float(visits), 1.0f, st);
+                    }
+                }
         }
-    }
 }
 
 // ICPT: a packet is one Latin-hypercube subset of a region of 2 x 2 blocks
@@ -154,6 +179,7 @@ void render_tile_packets(const TileJob& job, RenderStats& st) {
     tile.clear();
     if (job.sampler->type() == SamplerType::Icpt) start_icpt_packets<kDepthOfField>(job, tile);
     else start_pixel_packets<kDepthOfField>(job, tile);
+    tile.share_numbers(*job.sampler);
     if (job.heatmaps) tile.enable_heatmaps();
     auto scratch = std::make_unique<packet_detail::PacketScratch>();
     trace_tile_packets<kGlass, kLights>(*job.ctx, job.assembly, tile, *scratch, st);

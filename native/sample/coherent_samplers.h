@@ -119,6 +119,9 @@ public:
     float get(uint32_t px, uint32_t py, uint32_t sample, uint32_t dim) const {
         return stream(px, py, sample).get(dim);
     }
+    SequenceScope scope() const { return scope_; }
+    uint32_t packet_width() const { return packet_width_; }
+    uint32_t packet_height() const { return packet_height_; }
 
 private:
     SequenceScope scope_;

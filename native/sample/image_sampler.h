@@ -62,6 +62,19 @@ public:
     }
     uint32_t icpt_block_size() const { return type_ == SamplerType::Icpt ? icpt_.block_size() : 1; }
 
+    // Rectangles of pixels that read one stream in every sample, aligned to
+    // multiples of their size in image coordinates: CPT's packets (Packet
+    // scope). 0 x 0 where a driver has nothing to share: SPT (a stream per
+    // pixel), ICPT (which pixels share changes every sample) and Image-scope
+    // CPT (its numbers come from a table already).
+    struct SharedBlock {
+        uint32_t width = 0, height = 0;
+    };
+    SharedBlock shared_stream_block() const {
+        if (type_ != SamplerType::Cpt || cpt_.scope() != SequenceScope::Packet) return {};
+        return {cpt_.packet_width(), cpt_.packet_height()};
+    }
+
     static uint32_t icpt_block(const SamplerConfig& c) {
         const int n = c.packet_width < c.packet_height ? c.packet_width : c.packet_height;
         return uint32_t(n < 1 ? 1 : n);

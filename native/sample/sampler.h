@@ -80,6 +80,19 @@ constexpr SobolSlot sobol_slot(uint32_t dim) {
 //     (the first 2^m samples are one net: less error, a biased-high estimate).
 //   WhiteNoise: a counter-based hash of (key, sample, dim).
 // Samplers fill tables from the same function, so both give equal values.
+//
+// SharedSets: where many paths read the same stream (CPT: every pixel of a
+// packet, in the same sample), the first path to need a set draws it into
+// the SharedSets and the others copy it: the same numbers, one draw instead
+// of one per pixel. A SharedSets belongs to one (stream key, sample) and one
+// thread; SampleStream::share() attaches it.
+struct SharedSets {
+    // Sets 0 .. kSets-1: the camera's two and bounces 0..8; deeper sets are drawn per path.
+    static constexpr uint32_t kSets = 20;
+    uint32_t filled = 0;  // bit s: values[s] holds set s
+    alignas(16) float values[kSets][4];
+};
+
 class SampleStream {
 public:
     SampleStream(uint64_t key, uint32_t sample, SampleSequence sequence = SampleSequence::OwenSobol,
@@ -103,6 +116,10 @@ public:
         return cached_values_[slot.component];
     }
 
+    // Draws sets through `shared`, which must be fresh or have been filled
+    // by a stream with this one's key, sample and sequence.
+    void share(SharedSets* shared) { shared_ = sobol_ ? shared : nullptr; }
+
     // The value stream(key, sample, sequence) gives for `dim`: [0, 1), never 1.0.
     static float drawn(uint64_t key, uint32_t sample, uint32_t dim, SampleSequence sequence) {
         return SampleStream(key, sample, sequence).get(dim);
@@ -111,9 +128,21 @@ public:
 private:
     void draw_set(uint32_t set) const {
         cached_set_ = set;
+        if (shared_ && set < SharedSets::kSets) {
+            float* values = shared_->values[set];
+            if (!(shared_->filled & (1u << set))) {
+                compute_set(set, values);
+                shared_->filled |= 1u << set;
+            }
+            for (int c = 0; c < 4; ++c) cached_values_[c] = values[c];
+            return;
+        }
+        compute_set(set, cached_values_);
+    }
+    void compute_set(uint32_t set, float out[4]) const {
         const uint32_t seed = uint32_t(key_ >> 32) ^ (set * 0x9e3779b9u);
         const uint32_t shuffled = shuffle_reversed_index(reversed_index_, seed);
-        owen_sobol_set4(shuffled, seed, cached_values_);
+        owen_sobol_set4(shuffled, seed, out);
     }
 
     const float* row_;
@@ -122,6 +151,7 @@ private:
     uint32_t reversed_index_;  // Sobol: bit-reversed point index, sample / 2
     uint64_t key_;
     uint64_t sample_word_;  // white noise: sample << 32
+    SharedSets* shared_ = nullptr;
     // Sobol: the set last read and its four values. A stream belongs to one
     // path, read by one thread at a time, so get() may fill this cache.
     mutable uint32_t cached_set_ = ~0u;
@@ -158,7 +188,11 @@ class PathSampler {
 public:
     // Defined in image_sampler.h, the one sampler a render uses.
     PathSampler(const ImageSampler& s, uint32_t px, uint32_t py, uint32_t sample);
+    // A stream the caller resolved, e.g. once for the pixels that share it.
+    explicit PathSampler(const SampleStream& stream) : stream_(stream) {}
     float get(uint32_t dim) const { return stream_.get(dim); }
+    // Sets not yet read come through `shared` (SampleStream::share).
+    void share(SharedSets* shared) { stream_.share(shared); }
 
 private:
     SampleStream stream_;

@@ -88,6 +88,31 @@ TEST(RenderModes, PacketsGiveTheSingleRayImageForEveryIntegratorSamplerAndAssemb
         }
 }
 
+// Single rays and packets under CPT draw each random set once per packet
+// of pixels that share it (SharedSets), walking tiles block by block. Tiles
+// that cut blocks, packets that are not the tile's divisors, and runs of
+// several samples per pixel must still give every path its own numbers: the
+// stream driver, which shares nothing, renders the oracle.
+TEST(RenderModes, CptSharingNumbersPerPacketGivesTheUnsharedImage) {
+    const Scene scene = lobes_scene(true);
+    for (int packet : {3, 4})
+        for (int tile : {7, 16}) {
+            RenderSettings rs = modes_settings(Integrator::PathTrace, Traversal::Stream, SamplerType::Cpt);
+            rs.spp = 6;
+            rs.max_bounces = 3;
+            rs.tile_size = tile;
+            rs.packet_width = rs.packet_height = packet;
+            rs.report_interval = 60.0;  // batches of passes: pixel runs of several samples
+            const auto unshared = render(scene, rs);
+            for (Traversal t : {Traversal::Single, Traversal::Packet}) {
+                rs.traversal = t;
+                expect_same_image(unshared, render(scene, rs),
+                                  std::string(traversal_name(t)) + " packet " + std::to_string(packet) + " tile " +
+                                      std::to_string(tile));
+            }
+        }
+}
+
 TEST(RenderModes, StreamsAndWavefrontGiveTheSingleRayImage) {
     const Scene scene = lobes_scene(true);
     for (Integrator integrator : kIntegrators)

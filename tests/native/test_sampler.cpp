@@ -138,6 +138,65 @@ TEST(Sampler, CptPacketScopeSharesOneSequencePerPacket) {
     }
 }
 
+// The pixels of a CPT packet read one stream per sample, so drivers draw
+// each set once per packet (SharedSets): the first path that reads a set
+// draws it into the store, the others copy it. Every path must still get
+// exactly its own stream's numbers, whichever sets it reads, in any order,
+// including sets beyond the store's.
+TEST(Sampler, SharedSetsGiveEveryPathOfAPacketTheNumbersOfItsOwnStream) {
+    const CptSampler s(3, kDims, 0, 0, SequenceScope::Packet, 4, 4);
+    const uint32_t deepest = PathDims::count(12);
+    ASSERT_GT(deepest, 4 * SharedSets::kSets);
+    for (uint32_t k = 0; k < 4; ++k) {
+        SharedSets shared;
+        for (uint32_t p = 0; p < 16; ++p) {
+            const uint32_t px = 4 + p % 4, py = 8 + p / 4;
+            SampleStream st = s.stream(px, py, k);
+            st.share(&shared);
+            std::vector<uint32_t> dims;  // path p's reads: forwards, backwards, or a stride of 3
+            for (uint32_t d = 0; d < deepest; ++d) dims.push_back(p % 3 == 2 ? (d * 3) % deepest : d);
+            if (p % 3 == 1) std::reverse(dims.begin(), dims.end());
+            if (p < 4) dims.resize(size_t(PathDims::count(p)));  // paths that end early
+            for (uint32_t d : dims) ASSERT_EQ(st.get(d), s.get(px, py, k, d)) << "pixel " << p << " dim " << d;
+        }
+        EXPECT_EQ(shared.filled, (1u << SharedSets::kSets) - 1) << "every set the store covers went through it";
+    }
+    // Later paths copy, they do not draw again: a value planted in the store is what they read.
+    SharedSets shared;
+    SampleStream first = s.stream(0, 0, 9);
+    first.share(&shared);
+    (void)first.get(PathDims::bounce(1, PathDims::kBsdfU));
+    const SobolSlot slot = sobol_slot(PathDims::bounce(1, PathDims::kBsdfU));
+    ASSERT_TRUE(shared.filled & (1u << slot.set));
+    shared.values[slot.set][slot.component] = 0.125f;
+    SampleStream second = s.stream(3, 3, 9);
+    second.share(&shared);
+    EXPECT_EQ(second.get(PathDims::bounce(1, PathDims::kBsdfU)), 0.125f);
+}
+
+// Which pixels the drivers may treat as sharing a stream.
+TEST(Sampler, OnlyCptPacketsAreSharedStreamBlocks) {
+    SamplerConfig c;
+    c.sequence = SampleSequence::OwenSobol;
+    c.packet_width = 8;
+    c.packet_height = 2;
+    c.type = SamplerType::Cpt;
+    const ImageSampler cpt(c, 0, 4);
+    EXPECT_EQ(cpt.shared_stream_block().width, 8u);
+    EXPECT_EQ(cpt.shared_stream_block().height, 2u);
+    for (uint32_t y = 0; y < 4; ++y)
+        for (uint32_t x = 0; x < 16; ++x)
+            for (uint32_t d : {0u, 5u, 40u})
+                ASSERT_EQ(cpt.get(x, y, 1, d), cpt.get(x / 8 * 8, y / 2 * 2, 1, d));
+    c.scope = SequenceScope::Image;
+    EXPECT_EQ(ImageSampler(c, 0, 4).shared_stream_block().width, 0u);
+    c.scope = SequenceScope::Packet;
+    for (SamplerType t : {SamplerType::Spt, SamplerType::Icpt}) {
+        c.type = t;
+        EXPECT_EQ(ImageSampler(c, 0, 4).shared_stream_block().width, 0u) << sampler_type_name(t);
+    }
+}
+
 TEST(LatinSquares, EnumerationCountsAreKnown) {
     // Number of Latin squares of order n (OEIS A002860): 1, 2, 12, 576.
     EXPECT_EQ(latin_squares(1).enumerated_count(), 1u);
