@@ -54,7 +54,7 @@ struct PathTile {
     void start(const PathContext& ctx, const ImageSampler& sampler, uint32_t sample, int x, int y) {
         samplers.emplace_back(sampler, uint32_t(x), uint32_t(y), sample);
         states.emplace_back();
-        start_path<kDepthOfField>(ctx, samplers.back(), x, y, states.back());
+        start_fresh_path<kDepthOfField>(ctx, samplers.back(), x, y, states.back());
         px.push_back(x);
         py.push_back(y);
     }

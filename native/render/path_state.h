@@ -176,9 +176,11 @@ constexpr bool integrator_uses_lens(Integrator i) {
     return i == Integrator::PathTrace || i == Integrator::Distribution || i == Integrator::AmbientOcclusion;
 }
 
-// The camera ray of pixel (px, py)'s sample.
+// The camera ray of pixel (px, py)'s sample, set on a default-constructed
+// state `s` (start_path resets any state first; a driver that has just
+// constructed one skips that second pass over its ~500 bytes).
 template <bool kDepthOfField>
-inline void start_path(const PathContext& ctx, const PathSampler& ps, int px, int py, PathState& s) {
+inline void start_fresh_path(const PathContext& ctx, const PathSampler& ps, int px, int py, PathState& s) {
     using D = PathDims;
     const RenderSettings& rs = *ctx.settings;
     const float fx = float(px) + ps.get(D::kPixelX);
@@ -188,12 +190,18 @@ inline void start_path(const PathContext& ctx, const PathSampler& ps, int px, in
         lens_u = ps.get(D::kLensU);
         lens_v = ps.get(D::kLensV);
     }
-    s = PathState{};
     if (ctx.motion || (ctx.instances && ctx.instances->has_motion())) s.time = ps.get(D::kTime);
     s.features.pending = rs.denoising_features();
     s.pass.mask = rs.passes;
     s.ray = generate_camera_ray<kDepthOfField>(ctx.scene->camera, fx, fy, rs.width, rs.height, lens_u, lens_v).ray;
     s.type = RayType::Camera;
+}
+
+// The camera ray of pixel (px, py)'s sample, on any state.
+template <bool kDepthOfField>
+inline void start_path(const PathContext& ctx, const PathSampler& ps, int px, int py, PathState& s) {
+    s = PathState{};
+    start_fresh_path<kDepthOfField>(ctx, ps, px, py, s);
 }
 
 // The i-th ambient occlusion ray (i < s.ao_rays): cosine-distributed about

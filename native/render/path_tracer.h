@@ -40,7 +40,7 @@ PathOutput trace_path(const PathContext& ctx, const PathSampler& ps, int px, int
                       uint32_t* node_visits = nullptr) {
     const Bvh& bvh = *ctx.bvh;
     PathState s;
-    start_path<kDepthOfField>(ctx, ps, px, py, s);
+    start_fresh_path<kDepthOfField>(ctx, ps, px, py, s);
     while (s.alive) {
         const int bounce = s.bounce;
         TraversalCounters c;
