@@ -144,8 +144,7 @@ void image_texture(const Scene& scene, const ShaderInstr& in, const Registers& r
             // epsilon keeps exact quotients from landing a float ulp below.
             if (in.mode & kImageBytes) c[k] = std::floor(255.0f * std::clamp(c[k], 0.0f, 1.0f) + 1e-3f) / 255.0f;
         }
-    if (in.mode & kImageSrgb)
-        for (int k = 0; k < 3; ++k) c[k] = srgb_to_linear_image(c[k]);
+    if (in.mode & kImageSrgb) srgb_to_linear_image4(c);  // c[3] is not read again: alpha is kept above
     r.set(in.out[0], Vec3f{c[0], c[1], c[2]});
     r.set(in.out[1], alpha);
 }

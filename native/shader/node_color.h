@@ -9,6 +9,7 @@
 #include <cmath>
 #include <cstdlib>
 
+#include "../core/simd.h"
 #include "../core/vec.h"
 
 namespace coherent::shader {
@@ -194,6 +195,41 @@ inline float srgb_to_linear_image(float c) {
     const float a = (c + 0.055f) * (1.0f / 1.055f);
     // Past fastpow24's domain a^4 overflows, and Cycles' would give NaN.
     return a < 1e9f ? fastpow24(a) : std::pow(a, 2.4f);
+}
+
+// srgb_to_linear_image of four values at once (an Image Texture's RGBA: its
+// alpha is converted too and is the caller's to ignore), bit for bit the
+// scalar function's result in every lane: the same operations lane by lane
+// (the build never contracts them), as Cycles' SSE2 path converts a texel's
+// four channels together. Lanes past fastpow24's domain, or NaN, take the
+// scalar function.
+inline void srgb_to_linear_image4(float c[4]) {
+    using simd::vfloat4;
+    const vfloat4 v = vfloat4::loadu(c);
+    const vfloat4 a = (v + vfloat4(0.055f)) * vfloat4(1.0f / 1.055f);
+    // fastpow24, lane-wise; cvtps rounds to nearest even, as nearbyint does.
+    const vfloat4 scaled = a * vfloat4(std::bit_cast<float>(0x4F55A7FBu));
+    const __m128 guess_bits = _mm_mul_ps(_mm_cvtepi32_ps(_mm_castps_si128(scaled.v)),
+                                         _mm_set1_ps(std::bit_cast<float>(0x3F4CCCCDu)));
+    vfloat4 x(_mm_castsi128_ps(_mm_cvtps_epi32(guess_bits)));
+    const vfloat4 a2 = a * a, a4 = a2 * a2;
+    for (int step = 0; step < 3; ++step) {
+        const vfloat4 x2 = x * x, x4 = x2 * x2;
+        x = (vfloat4(4.0f) * x + a4 / x4) * vfloat4(1.0f / 5.0f);
+    }
+    const vfloat4 power = x * (x * x);
+    // std::max(l, 0) keeps l when l == 0 (a -0 stays -0); maxps returns its
+    // second operand on ties, so 0 goes first.
+    const vfloat4 linear = simd::max(vfloat4(0.0f), v * vfloat4(1.0f / 12.92f));
+    const simd::vbool4 dark = v < vfloat4(0.04045f);
+    simd::storeu(c, simd::select(dark, linear, power));
+    const int past_domain = simd::movemask(~(dark | (a < vfloat4(1e9f))));
+    if (past_domain) {
+        float a_lanes[4];
+        simd::storeu(a_lanes, a);
+        for (int k = 0; k < 4; ++k)
+            if (past_domain & (1 << k)) c[k] = std::pow(a_lanes[k], 2.4f);
+    }
 }
 
 }  // namespace coherent::shader

@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <bit>
 #include <cmath>
 #include <vector>
 
@@ -82,8 +83,34 @@ TEST(ShaderNodes, FastPow24AndImageSrgbAgreeWithPow) {
         const float linear = shader::srgb_to_linear_image(c);
         EXPECT_TRUE(std::isfinite(linear) || c > 1e15f) << c << " -> " << linear;
         // Past the domain it is powf(x, 2.4f), whose exponent is float(2.4).
-        if (std::isfinite(linear)) EXPECT_NEAR(linear / std::pow((c + 0.055) / 1.055, double(2.4f)), 1.0, 2e-6) << c;
+        if (std::isfinite(linear)) {
+            EXPECT_NEAR(linear / std::pow((c + 0.055) / 1.055, double(2.4f)), 1.0, 2e-6) << c;
+        }
     }
+}
+
+// The four-lane conversion an Image Texture uses gives the scalar function's
+// bits in every lane, whatever the other lanes hold: the whole [0, 1] range
+// in byte steps and between them, the linear segment's end, signed zeros,
+// negatives, float images' large values past fastpow24's domain, infinities
+// and NaN.
+TEST(ShaderNodes, FourLaneImageSrgbEqualsTheScalarBitForBit) {
+    std::vector<float> values = {0.0f, -0.0f, -1.0f, 0.04045f, std::nextafter(0.04045f, 0.0f), 1.0f, 1e-30f,
+                                 1.5f, 1e8f, 1e9f, 2e9f, 1e20f, 3e38f, INFINITY, -INFINITY, NAN};
+    for (int i = 0; i <= 4 * 255; ++i) values.push_back(float(i) / (4.0f * 255.0f));
+    const auto same = [](float a, float b) { return std::bit_cast<uint32_t>(a) == std::bit_cast<uint32_t>(b); };
+    for (size_t i = 0; i < values.size(); ++i)
+        for (size_t rotate = 0; rotate < 4; ++rotate) {  // each value in every lane, next to other kinds
+            float c[4];
+            for (size_t k = 0; k < 4; ++k) c[k] = values[(i + (k + rotate) * 7) % values.size()];
+            float expected[4];
+            for (size_t k = 0; k < 4; ++k) expected[k] = shader::srgb_to_linear_image(c[k]);
+            const float in[4] = {c[0], c[1], c[2], c[3]};
+            shader::srgb_to_linear_image4(c);
+            for (size_t k = 0; k < 4; ++k)
+                ASSERT_TRUE(same(c[k], expected[k]) || (std::isnan(c[k]) && std::isnan(expected[k])))
+                    << in[k] << ": " << c[k] << " against " << expected[k];
+        }
 }
 
 // A one-triangle scene whose material's emission is a program of its UVs.
