@@ -20,7 +20,17 @@
 namespace coherent {
 
 using namespace shader;
+using eval_detail::image_lookup_of;
 using eval_detail::Registers;
+
+TextureLookup eval_detail::image_lookup_of(const ShaderInstr& in) {
+    TextureLookup how;
+    const int interp = in.mode & kImageInterpMask;
+    how.interp = interp == 1 ? TextureLookup::Interp::Closest
+                             : (interp >= 2 ? TextureLookup::Interp::Cubic : TextureLookup::Interp::Linear);
+    how.extension = TextureLookup::Extension((in.mode & kImageExtensionMask) >> kImageExtensionShift);
+    return how;
+}
 
 namespace {
 
@@ -116,15 +126,6 @@ Vec3f normal_map(const Scene& scene, const ShadingGeometry& g, NormalMapSpace sp
     // As svm_node_normal_map ends: a mapped normal whose mirror direction
     // would point under the surface is tilted back towards Ng.
     return ensure_valid_reflection(g.ng, g.wo, n);
-}
-
-TextureLookup image_lookup_of(const ShaderInstr& in) {
-    TextureLookup how;
-    const int interp = in.mode & kImageInterpMask;
-    how.interp = interp == 1 ? TextureLookup::Interp::Closest
-                             : (interp >= 2 ? TextureLookup::Interp::Cubic : TextureLookup::Interp::Linear);
-    how.extension = TextureLookup::Extension((in.mode & kImageExtensionMask) >> kImageExtensionShift);
-    return how;
 }
 
 void image_texture(const Scene& scene, const ShaderInstr& in, const Registers& r) {

@@ -15,6 +15,10 @@
 
 #include "program.h"
 
+namespace coherent {
+struct Scene;
+}
+
 namespace coherent::eval_detail {
 
 // A batch's register file: row `reg` holds register reg of every lane.
@@ -32,5 +36,9 @@ bool run_vector_instruction(const ShaderProgram& prog, const ShaderInstr& in, co
 // Noise Texture 3D with Detail and Roughness the same in every live lane and
 // Distortion 0 (eval_batch_noise.cpp); false otherwise.
 bool noise3_rows(const ShaderProgram& prog, const ShaderInstr& in, const BatchRegisters& b, size_t live_lanes);
+
+// Image Texture on an in-memory byte RGBA image, linear, repeat or extend,
+// alpha straight or ignored (eval_batch_image.cpp); false otherwise.
+bool image_texture_rows(const Scene& scene, const ShaderInstr& in, const BatchRegisters& b);
 
 }  // namespace coherent::eval_detail

@@ -9,6 +9,7 @@
 #include "../core/vec.h"
 #include "eval.h"
 #include "program.h"
+#include "textures.h"
 
 namespace coherent::eval_detail {
 
@@ -44,6 +45,9 @@ void run_instruction(const Scene& scene, const ShaderProgram& prog, const Shadin
 // running the instruction, so the lanes' cache misses overlap. Does nothing
 // for other instructions.
 void prefetch_instruction(const Scene& scene, const ShaderInstr& in, const Registers& r);
+
+// An Image Texture instruction's interpolation and extension.
+TextureLookup image_lookup_of(const ShaderInstr& in);
 
 // Writes output o of a finished register file into `out` (a copy of the
 // material's constants) and the shading normal `n`.

@@ -197,39 +197,54 @@ inline float srgb_to_linear_image(float c) {
     return a < 1e9f ? fastpow24(a) : std::pow(a, 2.4f);
 }
 
-// srgb_to_linear_image of four values at once (an Image Texture's RGBA: its
-// alpha is converted too and is the caller's to ignore), bit for bit the
-// scalar function's result in every lane: the same operations lane by lane
-// (the build never contracts them), as Cycles' SSE2 path converts a texel's
-// four channels together. Lanes past fastpow24's domain, or NaN, take the
-// scalar function.
-inline void srgb_to_linear_image4(float c[4]) {
-    using simd::vfloat4;
-    const vfloat4 v = vfloat4::loadu(c);
-    const vfloat4 a = (v + vfloat4(0.055f)) * vfloat4(1.0f / 1.055f);
-    // fastpow24, lane-wise; cvtps rounds to nearest even, as nearbyint does.
-    const vfloat4 scaled = a * vfloat4(std::bit_cast<float>(0x4F55A7FBu));
-    const __m128 guess_bits = _mm_mul_ps(_mm_cvtepi32_ps(_mm_castps_si128(scaled.v)),
-                                         _mm_set1_ps(std::bit_cast<float>(0x3F4CCCCDu)));
-    vfloat4 x(_mm_castsi128_ps(_mm_cvtps_epi32(guess_bits)));
-    const vfloat4 a2 = a * a, a4 = a2 * a2;
+namespace srgb_detail {
+// fastpow24's first guess, lane-wise: the scaled value's bits read as an
+// integer, times 4/5, rounded to nearest even (cvtps, as nearbyint), read
+// back as a float's bits.
+inline simd::vfloat4 fastpow24_guess(simd::vfloat4 scaled) {
+    const __m128 times = _mm_mul_ps(_mm_cvtepi32_ps(_mm_castps_si128(scaled.v)),
+                                    _mm_set1_ps(std::bit_cast<float>(0x3F4CCCCDu)));
+    return simd::vfloat4(_mm_castsi128_ps(_mm_cvtps_epi32(times)));
+}
+inline simd::vfloat8 fastpow24_guess(simd::vfloat8 scaled) {
+    const __m256 times = _mm256_mul_ps(_mm256_cvtepi32_ps(_mm256_castps_si256(scaled.v)),
+                                       _mm256_set1_ps(std::bit_cast<float>(0x3F4CCCCDu)));
+    return simd::vfloat8(_mm256_castsi256_ps(_mm256_cvtps_epi32(times)));
+}
+}  // namespace srgb_detail
+
+// srgb_to_linear_image lane by lane (V = simd::vfloat4 or vfloat8), bit for
+// bit the scalar function's result in every lane whose bit is clear in
+// `scalar_lanes`: the same operations in the same order (the build never
+// contracts them), as Cycles' SSE2 path converts a texel's four channels
+// together. The lanes it sets (NaN, or past fastpow24's domain) must take
+// the scalar function.
+template <class V>
+V srgb_to_linear_image_lanes(V c, int& scalar_lanes) {
+    const V a = (c + V(0.055f)) * V(1.0f / 1.055f);
+    V x = srgb_detail::fastpow24_guess(a * V(std::bit_cast<float>(0x4F55A7FBu)));
+    const V a2 = a * a, a4 = a2 * a2;
     for (int step = 0; step < 3; ++step) {
-        const vfloat4 x2 = x * x, x4 = x2 * x2;
-        x = (vfloat4(4.0f) * x + a4 / x4) * vfloat4(1.0f / 5.0f);
+        const V x2 = x * x, x4 = x2 * x2;
+        x = (V(4.0f) * x + a4 / x4) * V(1.0f / 5.0f);
     }
-    const vfloat4 power = x * (x * x);
+    const V power = x * (x * x);
     // std::max(l, 0) keeps l when l == 0 (a -0 stays -0); maxps returns its
     // second operand on ties, so 0 goes first.
-    const vfloat4 linear = simd::max(vfloat4(0.0f), v * vfloat4(1.0f / 12.92f));
-    const simd::vbool4 dark = v < vfloat4(0.04045f);
-    simd::storeu(c, simd::select(dark, linear, power));
-    const int past_domain = simd::movemask(~(dark | (a < vfloat4(1e9f))));
-    if (past_domain) {
-        float a_lanes[4];
-        simd::storeu(a_lanes, a);
-        for (int k = 0; k < 4; ++k)
-            if (past_domain & (1 << k)) c[k] = std::pow(a_lanes[k], 2.4f);
-    }
+    const V linear = simd::max(V(0.0f), c * V(1.0f / 12.92f));
+    const auto dark = c < V(0.04045f);
+    scalar_lanes = simd::movemask(~(dark | (a < V(1e9f))));
+    return simd::select(dark, linear, power);
+}
+
+// srgb_to_linear_image of four values at once (an Image Texture's RGBA: its
+// alpha is converted too and is the caller's to ignore).
+inline void srgb_to_linear_image4(float c[4]) {
+    int scalar_lanes = 0;
+    const float in[4] = {c[0], c[1], c[2], c[3]};
+    simd::storeu(c, srgb_to_linear_image_lanes(simd::vfloat4::loadu(c), scalar_lanes));
+    for (int k = 0; k < 4; ++k)
+        if (scalar_lanes & (1 << k)) c[k] = srgb_to_linear_image(in[k]);
 }
 
 }  // namespace coherent::shader

@@ -252,6 +252,11 @@ void TextureStore::prefetch(uint32_t index, float u, float v, TextureLookup how)
     if (image && !image->missing && image->pixels.data) prefetch_image(image->pixels, u, v, how);
 }
 
+const ImagePixels* TextureStore::memory_pixels(uint32_t index) const {
+    const Image* image = index < images_.size() ? images_[index].get() : nullptr;
+    return image && !image->missing && image->pixels.data ? &image->pixels : nullptr;
+}
+
 bool read_image_file_format(const std::string& path, ImageFileFormat& format) {
     auto in = OIIO::ImageInput::open(path);
     if (!in) {

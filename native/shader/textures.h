@@ -33,6 +33,7 @@ struct TextureLookup {
 };
 
 struct PixelBuffer;  // memory_images.h
+struct ImagePixels;  // image_filter.h
 
 // What an image file's header says, read without decoding its pixels: the
 // channel count, and whether its values are wider than 8 bits (Blender then
@@ -77,6 +78,9 @@ public:
     // Starts loading the texels lookup(image, u, v, how) reads, when the
     // image is in memory (files: nothing; OIIO finds its tiles itself).
     void prefetch(uint32_t image, float u, float v, TextureLookup how) const;
+    // The pixels lookup() filters directly (image_filter.h) when `image` is
+    // in memory and present; null for files and missing images.
+    const ImagePixels* memory_pixels(uint32_t image) const;
     // The same through OIIO's TextureSystem also for in-memory images: the
     // reference the direct filter is tested against.
     void lookup_through_oiio(uint32_t image, float u, float v, TextureLookup how, float rgba[4]) const {
