@@ -175,13 +175,16 @@ void start_pixel_packets(const TileJob& job, PathTile& tile) {
 template <bool kGlass, bool kDepthOfField, bool kLights>
 void render_tile_packets(const TileJob& job, RenderStats& st) {
     if (job.cancelled->load(std::memory_order_relaxed)) return;
-    PathTile tile;
+    // Kept per thread across calls: a tile's paths are ~0.5 MB, which a fresh
+    // PathTile would allocate (and the kernel zero page by page) every pass.
+    thread_local PathTile tile;
+    thread_local std::unique_ptr<packet_detail::PacketScratch> scratch;
     tile.clear();
     if (job.sampler->type() == SamplerType::Icpt) start_icpt_packets<kDepthOfField>(job, tile);
     else start_pixel_packets<kDepthOfField>(job, tile);
     tile.share_numbers(*job.sampler);
     if (job.heatmaps) tile.enable_heatmaps();
-    auto scratch = std::make_unique<packet_detail::PacketScratch>();
+    if (!scratch) scratch = std::make_unique<packet_detail::PacketScratch>();
     trace_tile_packets<kGlass, kLights>(*job.ctx, job.assembly, tile, *scratch, st);
     for (size_t p = 0; p < tile.size(); ++p) {
         const float visits = job.heatmaps ? float(tile.node_visits[p]) : 0.0f;
@@ -196,7 +199,7 @@ void render_tile_packets(const TileJob& job, RenderStats& st) {
 template <bool kGlass, bool kDepthOfField, bool kLights>
 void render_tile_streams(const TileJob& job, RenderStats& st) {
     if (job.cancelled->load(std::memory_order_relaxed)) return;
-    PathTile tile;
+    thread_local PathTile tile;  // kept per thread, as the packet kernel's
     tile.clear();
     for (int y = job.y0; y < job.y1; ++y)
         for (int x = job.x0; x < job.x1; ++x) {
