@@ -131,7 +131,12 @@ struct PacketScratch {
     float lane_time[kMaxPacketRays];  // moving instances only: each lane's path time
     Hit lane_hit[kMaxPacketRays];     // extension: each lane's hit, motion merged
     bool lane_found[kMaxPacketRays];
-    HitShading shading;               // the packet's shader programs, run together
+    HitShading shading;               // shader programs of many hits, run together
+    // Shading deferred to the end of a bounce (scenes with shader programs):
+    // the traced paths in order, and each one's hit (motion merged).
+    std::vector<int> traced;
+    std::vector<Hit> traced_hit;
+    std::vector<uint8_t> traced_found;
 };
 
 // trace_tile_packets() below, in steps. The packet being gathered is
@@ -145,18 +150,35 @@ public:
           st_(st), heat_(!tile.node_visits.empty()), min_coherence_(ctx.settings->packet_min_coherence) {}
 
     // Every bounce, packet by packet: the extension rays, then the
-    // occlusion rays their shading queued.
+    // occlusion rays their shading queued. Where materials run shader
+    // programs, the whole tile's extension rays are traced first and their
+    // hits shaded together afterwards: a packet's hits beyond the camera
+    // spread over many materials, so a program would run on one or two lanes
+    // of a batch, where the tile's hits fill its SIMD rows. Paths are
+    // independent and each still traces, shades, then resolves its
+    // occlusion rays in that order, so the image is the same.
     void run() {
         pk_.clear();
+        defer_ = scratch_.shading.wanted(ctx_);
+        if (defer_) {
+            scratch_.traced_hit.resize(tile_.size());
+            scratch_.traced_found.resize(tile_.size());
+        }
         for (int bounce = 0;; ++bounce) {
             bool any_alive = false;
+            scratch_.traced.clear();
             for (int k = 0; k < tile_.packets(); ++k) {
                 const int b = tile_.packet_begin[size_t(k)], e = tile_.packet_begin[size_t(k) + 1];
                 if (assembly_ == PacketAssembly::RayType) extend_by_type(bounce, b, e);
                 else extend_by_runs(bounce, b, e);
-                trace_occlusion(bounce, b, e);
-                for (int p = b; p < e && !any_alive; ++p) any_alive = tile_.states[size_t(p)].alive;
+                if (!defer_) trace_occlusion(bounce, b, e);
             }
+            if (defer_) {
+                shade_traced();
+                for (int k = 0; k < tile_.packets(); ++k)
+                    trace_occlusion(bounce, tile_.packet_begin[size_t(k)], tile_.packet_begin[size_t(k) + 1]);
+            }
+            for (size_t p = 0; p < tile_.size() && !any_alive; ++p) any_alive = tile_.states[p].alive;
             if (!any_alive) break;
         }
     }
@@ -249,6 +271,17 @@ private:
             found[i] = merge_motion_hit(ctx_, tile_.states[size_t(scratch_.lane_path[i])], hits[i].valid(), hits[i],
                                         &motion);
         }
+        if (ctx_.motion) book_work(st_, bounce, motion);
+        if (defer_) {  // shaded with the tile's other hits (shade_traced)
+            for (int i = 0; i < pk_.size; ++i) {
+                const int p = scratch_.lane_path[i];
+                scratch_.traced.push_back(p);
+                scratch_.traced_hit[size_t(p)] = hits[i];
+                scratch_.traced_found[size_t(p)] = found[i];
+            }
+            pk_.clear();
+            return;
+        }
         // The packet's shader programs run together (batch_shading.h).
         scratch_.shading.prepare(
             ctx_, size_t(pk_.size), [&](size_t i) { return found[i] ? &hits[i] : nullptr; },
@@ -258,8 +291,29 @@ private:
             shade_hit<kGlass, kLights>(ctx_, tile_.samplers[p], tile_.states[p], found[i], hits[i],
                                        scratch_.shading.at(size_t(i)));
         }
-        if (ctx_.motion) book_work(st_, bounce, motion);
         pk_.clear();
+    }
+
+    // Shades the paths traced this bounce, their programs batched per
+    // material over up to kShadeChunk hits at a time.
+    void shade_traced() {
+        const std::vector<int>& traced = scratch_.traced;
+        for (size_t first = 0; first < traced.size(); first += kShadeChunk) {
+            const size_t n = std::min(kShadeChunk, traced.size() - first);
+            const int* paths = traced.data() + first;
+            scratch_.shading.prepare(
+                ctx_, n,
+                [&](size_t i) {
+                    const size_t p = size_t(paths[i]);
+                    return scratch_.traced_found[p] ? &scratch_.traced_hit[p] : nullptr;
+                },
+                [&](size_t i) -> const PathState& { return tile_.states[size_t(paths[i])]; });
+            for (size_t i = 0; i < n; ++i) {
+                const size_t p = size_t(paths[i]);
+                shade_hit<kGlass, kLights>(ctx_, tile_.samplers[p], tile_.states[p], scratch_.traced_found[p] != 0,
+                                           scratch_.traced_hit[p], scratch_.shading.at(i));
+            }
+        }
     }
 
     // Traces the gathered occlusion rays of paths b.. and counts each
@@ -354,6 +408,7 @@ private:
     RenderStats& st_;
     const bool heat_;
     const float min_coherence_;
+    bool defer_ = false;           // shading waits for the tile's extension rays (run())
     std::vector<int> unoccluded_;  // per path of the packet: its unoccluded occlusion rays
 };
 
