@@ -83,10 +83,14 @@ private:
     template <class HitOf, class StateOf>
     void evaluate(const PathContext& ctx, HitOf hit, StateOf state) {
         const size_t n = keys_.size();
-        geometry_.resize(n);
-        paths_.resize(n);
-        materials_.resize(n);
-        normals_.resize(n);
+        // Grown, never shrunk: entries [0, n) are all written below, and
+        // resizing down and up again would construct every Material anew.
+        if (geometry_.size() < n) {
+            geometry_.resize(n);
+            paths_.resize(n);
+            materials_.resize(n);
+            normals_.resize(n);
+        }
         for (size_t j = 0; j < n; ++j) {
             const size_t i = size_t(keys_[j] & 0xFFFFFFFFu);
             const shading::PreShaded& p = pre_[size_t(slot_[i])];
