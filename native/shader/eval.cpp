@@ -76,9 +76,10 @@ std::optional<ObjectShading> object_of(const Scene& scene, const ShadingGeometry
 }
 
 Vec3f texture_coordinate(const Scene& scene, const ShadingGeometry& g, TexCoordKind kind, uint32_t layer) {
+    if (kind == TexCoordKind::Uv) return uv_coordinate(scene, g, layer);  // the common case needs no object
     const std::optional<ObjectShading> object = object_of(scene, g);
     switch (kind) {
-        case TexCoordKind::Uv: return uv_coordinate(scene, g, layer);
+        case TexCoordKind::Uv: break;
         case TexCoordKind::Generated:
             if (!object) return g.p;
             return object->world_to_object.point(g.p) * object->generated_scale + object->generated_offset;
