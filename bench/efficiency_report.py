@@ -195,6 +195,27 @@ def tick_label(value, _position):
     return f"{value:g}" if round(mantissa, 6) in (1, 2, 5) else ""
 
 
+def show_context(ax, cycles_points):
+    """Every axis spans at least a factor of 4 (a run at one spp otherwise
+    puts its two points in opposite corners, without a tick between them),
+    and a grey line of Cycles' efficiency, RMSE proportional to 1/sqrt(s),
+    goes through its point at 256 spp (else its last): a point below the
+    line reaches its error sooner than Cycles does."""
+    (x0, y0), (x1, y1) = ax.dataLim.get_points()
+    for lo, hi, setter in ((x0, x1, ax.set_xlim), (y0, y1, ax.set_ylim)):
+        if lo > 0 and hi / lo < 4.0:
+            centre = math.sqrt(lo * hi)
+            setter(centre / 2.0, centre * 2.0)
+    if not cycles_points:
+        return
+    spp, q = next(((n, q) for n, q in cycles_points if n == 256), cycles_points[-1])
+    t0, e0 = q["seconds"], q["mse"] ** 0.5
+    xs = ax.get_xlim()
+    ax.loglog(xs, [e0 * math.sqrt(t0 / x) for x in xs], color="grey", lw=0.8, ls="--",
+              label=f"Cycles' efficiency at {spp} spp")
+    ax.set_xlim(xs)
+
+
 def plot(rep, path):
     import matplotlib
     matplotlib.use("Agg")
@@ -224,6 +245,7 @@ def plot(rep, path):
         for n, q in pts:
             ax.annotate(f"{n}", (q["seconds"], q["mse"] ** 0.5), textcoords="offset points", xytext=(4, 4),
                         fontsize=7)
+        show_context(ax, pts)
         ax.set_title(scene)
         ax.set_xlabel("seconds (bpy.ops.render.render, 2 threads)")
         ax.set_ylabel("RMSE (linear RGB)")
