@@ -282,14 +282,10 @@ private:
             pk_.clear();
             return;
         }
-        // The packet's shader programs run together (batch_shading.h).
-        scratch_.shading.prepare(
-            ctx_, size_t(pk_.size), [&](size_t i) { return found[i] ? &hits[i] : nullptr; },
-            [&](size_t i) -> const PathState& { return tile_.states[size_t(scratch_.lane_path[i])]; });
+        // No shader programs to batch (defer_ is HitShading::wanted): each hit is shaded alone.
         for (int i = 0; i < pk_.size; ++i) {
             const size_t p = size_t(scratch_.lane_path[i]);
-            shade_hit<kGlass, kLights>(ctx_, tile_.samplers[p], tile_.states[p], found[i], hits[i],
-                                       scratch_.shading.at(size_t(i)));
+            shade_hit<kGlass, kLights>(ctx_, tile_.samplers[p], tile_.states[p], found[i], hits[i]);
         }
         pk_.clear();
     }

@@ -29,8 +29,8 @@ using VI = simd::vint8;
 
 // image_filter::bounded, lane-wise (NaN goes to -limit, as there).
 V bounded(V x) {
-    const V limit(1073741824.0f);
-    return select(x >= V(0.0f) - limit, select(x <= limit, x, limit), V(0.0f) - limit);
+    const V limit(1073741824.0f), lowest(-1073741824.0f);
+    return select(x >= lowest, select(x <= limit, x, limit), lowest);
 }
 
 // image_filter::footprint: the lower texel (truncation, one lower below 0)
@@ -92,22 +92,6 @@ void add(Rgba& acc, V w, const Rgba& t) {
     acc.a = acc.a + w * t.a;
 }
 
-// image_texture's sRGB decode of one channel row; lanes past fastpow24's
-// domain (never for bytes, which stay in [0, 1]) take the scalar function.
-V srgb_row(V c) {
-    int scalar_lanes = 0;
-    V out = shader::srgb_to_linear_image_lanes(c, scalar_lanes);
-    if (scalar_lanes) {
-        alignas(32) float in[8], res[8];
-        simd::store(in, c);
-        simd::store(res, out);
-        for (int k = 0; k < 8; ++k)
-            if (scalar_lanes & (1 << k)) res[k] = shader::srgb_to_linear_image(in[k]);
-        out = V::load(res);
-    }
-    return out;
-}
-
 }  // namespace
 
 bool image_texture_rows(const Scene& scene, const ShaderInstr& in, const BatchRegisters& b) {
@@ -142,7 +126,9 @@ bool image_texture_rows(const Scene& scene, const ShaderInstr& in, const BatchRe
         add(acc, ty * (V(1.0f) - tx), gather(texels, at(r1, x0)));
         add(acc, ty * tx, gather(texels, at(r1, x1)));
         const V alpha = (in.mode & kImageIgnoreAlpha) ? V(1.0f) : acc.a;
-        if (in.mode & kImageSrgb) acc = {srgb_row(acc.r), srgb_row(acc.g), srgb_row(acc.b), acc.a};
+        if (in.mode & kImageSrgb)
+            acc = {shader::srgb_to_linear_image_lanes(acc.r), shader::srgb_to_linear_image_lanes(acc.g),
+                   shader::srgb_to_linear_image_lanes(acc.b), acc.a};
         if (in.out[0] != kNoRegister) {
             simd::storeu(b.row(in.out[0]) + l, acc.r);
             simd::storeu(b.row(uint16_t(in.out[0] + 1)) + l, acc.g);

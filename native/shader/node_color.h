@@ -214,13 +214,12 @@ inline simd::vfloat8 fastpow24_guess(simd::vfloat8 scaled) {
 }  // namespace srgb_detail
 
 // srgb_to_linear_image lane by lane (V = simd::vfloat4 or vfloat8), bit for
-// bit the scalar function's result in every lane whose bit is clear in
-// `scalar_lanes`: the same operations in the same order (the build never
-// contracts them), as Cycles' SSE2 path converts a texel's four channels
-// together. The lanes it sets (NaN, or past fastpow24's domain) must take
-// the scalar function.
+// bit the scalar function's result in every lane: the same operations in
+// the same order (the build never contracts them), as Cycles' SSE2 path
+// converts a texel's four channels together. Lanes the fast path does not
+// cover (NaN, or past fastpow24's domain) take the scalar function.
 template <class V>
-V srgb_to_linear_image_lanes(V c, int& scalar_lanes) {
+V srgb_to_linear_image_lanes(V c) {
     const V a = (c + V(0.055f)) * V(1.0f / 1.055f);
     V x = srgb_detail::fastpow24_guess(a * V(std::bit_cast<float>(0x4F55A7FBu)));
     const V a2 = a * a, a4 = a2 * a2;
@@ -233,18 +232,22 @@ V srgb_to_linear_image_lanes(V c, int& scalar_lanes) {
     // second operand on ties, so 0 goes first.
     const V linear = simd::max(V(0.0f), c * V(1.0f / 12.92f));
     const auto dark = c < V(0.04045f);
-    scalar_lanes = simd::movemask(~(dark | (a < V(1e9f))));
-    return simd::select(dark, linear, power);
+    const V out = simd::select(dark, linear, power);
+    const int scalar_lanes = simd::movemask(~(dark | (a < V(1e9f))));
+    if (!scalar_lanes) return out;
+    constexpr int kLanes = sizeof(V) / sizeof(float);
+    float in[kLanes], res[kLanes];
+    simd::storeu(in, c);
+    simd::storeu(res, out);
+    for (int k = 0; k < kLanes; ++k)
+        if (scalar_lanes & (1 << k)) res[k] = srgb_to_linear_image(in[k]);
+    return V::loadu(res);
 }
 
 // srgb_to_linear_image of four values at once (an Image Texture's RGBA: its
 // alpha is converted too and is the caller's to ignore).
 inline void srgb_to_linear_image4(float c[4]) {
-    int scalar_lanes = 0;
-    const float in[4] = {c[0], c[1], c[2], c[3]};
-    simd::storeu(c, srgb_to_linear_image_lanes(simd::vfloat4::loadu(c), scalar_lanes));
-    for (int k = 0; k < 4; ++k)
-        if (scalar_lanes & (1 << k)) c[k] = srgb_to_linear_image(in[k]);
+    simd::storeu(c, srgb_to_linear_image_lanes(simd::vfloat4::loadu(c)));
 }
 
 }  // namespace coherent::shader

@@ -248,8 +248,7 @@ void TextureStore::lookup_by(uint32_t index, float u, float v, TextureLookup how
 }
 
 void TextureStore::prefetch(uint32_t index, float u, float v, TextureLookup how) const {
-    const Image* image = index < images_.size() ? images_[index].get() : nullptr;
-    if (image && !image->missing && image->pixels.data) prefetch_image(image->pixels, u, v, how);
+    if (const ImagePixels* pixels = memory_pixels(index)) prefetch_image(*pixels, u, v, how);
 }
 
 const ImagePixels* TextureStore::memory_pixels(uint32_t index) const {
