@@ -54,7 +54,7 @@ public:
 
     size_t bytes() const {
         return slot_.capacity() * sizeof(int32_t) + pre_.capacity() * sizeof(shading::PreShaded) +
-               keys_.capacity() * sizeof(uint64_t) + geometry_.capacity() * sizeof(ShadingGeometry) +
+               (keys_.capacity() + sorted_.capacity()) * sizeof(uint64_t) + geometry_.capacity() * sizeof(ShadingGeometry) +
                paths_.capacity() * sizeof(LightPathInfo) + materials_.capacity() * sizeof(Material) +
                normals_.capacity() * sizeof(Vec3f);
     }
@@ -76,7 +76,23 @@ private:
             if (scene.materials[p.sp.material].program) keys_.push_back(uint64_t(p.sp.material) << 32 | i);
             pre_.push_back(p);
         }
-        std::sort(keys_.begin(), keys_.end());
+        sort_by_material(scene.materials.size());
+    }
+
+    // keys_ ascending. They were pushed in entry order, so a stable counting
+    // sort by material gives what std::sort would: a scene has a few
+    // materials and a chunk thousands of keys, where comparisons cost more.
+    void sort_by_material(size_t materials) {
+        if (keys_.size() < 64) {
+            std::sort(keys_.begin(), keys_.end());
+            return;
+        }
+        starts_.assign(materials + 1, 0);
+        for (const uint64_t key : keys_) ++starts_[size_t(key >> 32) + 1];
+        for (size_t m = 0; m < materials; ++m) starts_[m + 1] += starts_[m];
+        sorted_.resize(keys_.size());
+        for (const uint64_t key : keys_) sorted_[starts_[size_t(key >> 32)]++] = key;
+        keys_.swap(sorted_);
     }
 
     // Runs each material's program over its entries, in one batch.
@@ -121,6 +137,8 @@ private:
     std::vector<int32_t> slot_;  // entry -> pre_ index, -1: not prepared
     std::vector<shading::PreShaded> pre_;
     std::vector<uint64_t> keys_;  // material << 32 | entry, of the program entries
+    std::vector<uint64_t> sorted_;  // sort_by_material's output, swapped with keys_
+    std::vector<uint32_t> starts_;  // sort_by_material: each material's next key slot
     std::vector<ShadingGeometry> geometry_;  // in keys_ order, as the batches
     std::vector<LightPathInfo> paths_;
     std::vector<Material> materials_;

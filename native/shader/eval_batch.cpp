@@ -56,7 +56,9 @@ void eval_detail::run_batch(const Scene& scene, const ShaderProgram& prog, const
     const BatchRegisters b{registers, lanes, (live + 7) / 8};
     load_constants(prog, b);
     for (const ShaderInstr& in : prog.code) {
-        if (run_vector_instruction(prog, in, b, live) || image_texture_rows(scene, in, b)) continue;
+        if (run_vector_instruction(prog, in, b, live) || image_texture_rows(scene, in, b) ||
+            geometry_rows(scene, prog, in, g, live, b))
+            continue;
         if (in.op == ShaderOp::ImageTexture)
             for (size_t l = 0; l < live; ++l) prefetch_instruction(scene, in, Registers{registers + l, lanes});
         for (size_t l = 0; l < live; ++l) run_instruction(scene, prog, g[l], in, Registers{registers + l, lanes});

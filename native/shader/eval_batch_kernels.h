@@ -17,6 +17,7 @@
 
 namespace coherent {
 struct Scene;
+struct ShadingGeometry;
 }
 
 namespace coherent::eval_detail {
@@ -40,5 +41,10 @@ bool noise3_rows(const ShaderProgram& prog, const ShaderInstr& in, const BatchRe
 // Image Texture on an in-memory byte RGBA image, linear, repeat or extend,
 // alpha straight or ignored (eval_batch_image.cpp); false otherwise.
 bool image_texture_rows(const Scene& scene, const ShaderInstr& in, const BatchRegisters& b);
+
+// UV coordinates and the tangent-space Normal Map of points g[0..live) on
+// the flattened mesh (eval_batch_geometry.cpp); false otherwise.
+bool geometry_rows(const Scene& scene, const ShaderProgram& prog, const ShaderInstr& in, const ShadingGeometry* g,
+                   size_t live, const BatchRegisters& b);
 
 }  // namespace coherent::eval_detail

@@ -8,6 +8,7 @@
 // either interpreter, so which NaN survives is not fixed by the source.
 #include <gtest/gtest.h>
 
+#include <array>
 #include <cstring>
 #include <memory>
 #include <random>
@@ -249,6 +250,86 @@ TEST(ShaderBatch, ImageTextureRowsMatchTheScalarLookup) {
                     }
     // The covered modes really ran on rows: 4 RGBA byte images x 2 extensions x 4 flag sets x 4 patterns.
     EXPECT_EQ(rows_taken, 4 * 2 * 4 * 4);
+}
+
+// The UV coordinate and the tangent-space Normal Map on SIMD rows
+// (eval_batch_geometry.cpp) against the scalar nodes: per-lane triangles,
+// barycentrics, normals, incoming directions and colours that are both edgy
+// and realistic (unit vectors whose mapped normal ensure_valid_reflection
+// sometimes has to tilt, which the rows hand to the scalar code), strength 1,
+// another constant, or per lane. A point on an instance makes the whole
+// instruction scalar.
+TEST(ShaderBatch, UvAndNormalMapRowsMatchTheScalarNodes) {
+    std::mt19937 rng(31);
+    std::uniform_real_distribution<float> unit(0.0f, 1.0f), signed_unit(-1.0f, 1.0f);
+    const auto direction = [&] {
+        const Vec3f d{signed_unit(rng), signed_unit(rng), signed_unit(rng)};
+        return length(d) > 1e-3f ? normalize(d) : Vec3f{0.0f, 0.0f, 1.0f};
+    };
+    Scene scene;
+    constexpr size_t kTriangles = 50;
+    scene.shading.uvs.assign(2, {});
+    for (auto& layer : scene.shading.uvs)
+        for (size_t i = 0; i < 3 * kTriangles; ++i)
+            layer.push_back(rng() % 8 ? Vec2f{signed_unit(rng), unit(rng)} : Vec2f{edgy(rng), edgy(rng)});
+    for (size_t i = 0; i < 3 * kTriangles; ++i) {
+        scene.shading.tangents.push_back(rng() % 8 ? direction() : edgy3(rng));
+        scene.shading.tangent_signs.push_back(i % 3 ? 0.0f : (rng() % 2 ? 1.0f : -1.0f));
+    }
+    const Prototype prototype;
+    int rows_taken = 0, tilted = 0;
+    for (int round = 0; round < 64; ++round) {
+        const bool realistic = round % 2 == 0;
+        Points pts(round % 3 ? kShaderBatchLanes : 29, rng);
+        for (ShadingGeometry& g : pts.g) {
+            g.tri = uint32_t(rng() % kTriangles);
+            if (realistic) {
+                g.ng = direction();
+                g.n = normalize(g.ng + 0.3f * direction());
+                g.wo = direction();
+                if (dot(g.wo, g.ng) < 0.0f) g.wo = -g.wo;
+                g.u = unit(rng) * 0.5f, g.v = unit(rng) * 0.5f;
+            }
+        }
+        const bool on_instance = round == 5;
+        if (on_instance) pts.g[3].prototype = &prototype;
+        for (const bool normal_map : {false, true}) {
+            ShaderInstr in;
+            if (normal_map) {
+                // Strength: 1 (a constant register), another constant, or per lane (Parametric's u);
+                // colour: per lane (Position), or the constant registers 15..17.
+                const uint16_t strength = std::array<uint16_t, 3>{28, 15, 12}[round % 3];
+                in = instr(ShaderOp::NormalMap, uint16_t(NormalMapSpace::Tangent), {kOut}, {strength, uint16_t(round % 4 ? 0 : 15)});
+            } else {
+                in = instr(ShaderOp::TexCoord, uint16_t(TexCoordKind::Uv), {round % 5 ? kOut : uint16_t(0)}, {}, uint32_t(round % 2));
+            }
+            ShaderProgram p = program_with(in, rng);
+            p.constants[28] = 1.0f;
+            if (normal_map && realistic)  // colours of a normal map: z mostly up
+                for (ShadingGeometry& g : pts.g) g.p = {unit(rng), unit(rng), 0.5f + 0.5f * unit(rng)};
+            ASSERT_EQ(p.validate(0, 2), "");
+            std::string first;
+            EXPECT_EQ(mismatches(scene, p, pts, first), 0)
+                << (normal_map ? "normal map" : "uv") << " round " << round << ": " << first;
+            std::vector<float> regs(p.constants.size() * kShaderBatchLanes, 0.0f);
+            eval_detail::run_batch(scene, p, pts.g.data(), 0, regs.data());  // just the constants
+            const eval_detail::BatchRegisters b{regs.data(), kShaderBatchLanes, (pts.g.size() + 7) / 8};
+            const bool rows = eval_detail::geometry_rows(scene, p, in, pts.g.data(), pts.g.size(), b);
+            EXPECT_EQ(rows, !on_instance) << "round " << round;
+            rows_taken += rows;
+            if (normal_map && realistic)
+                for (const ShadingGeometry& g : pts.g) {
+                    std::vector<float> r = p.constants;
+                    for (const ShaderInstr& i : p.code) eval_detail::run_instruction(scene, p, g, i, eval_detail::Registers{r.data()});
+                    const Vec3f mapped{r[kOut], r[kOut + 1], r[kOut + 2]};
+                    const Vec3f refl = 2.0f * dot(mapped, g.wo) * mapped - g.wo;
+                    // A tilted normal reflects exactly onto the threshold.
+                    tilted += std::fabs(dot(g.ng, refl) - std::min(0.9f * dot(g.ng, g.wo), 0.01f)) < 1e-4f;
+                }
+        }
+    }
+    EXPECT_EQ(rows_taken, 2 * 63);
+    EXPECT_GT(tilted, 0);  // some lanes went through ensure_valid_reflection's tilt
 }
 
 template <class T>
