@@ -28,12 +28,14 @@
 #include <string>
 #include <vector>
 
+#include "../core/huge_page_allocator.h"
+
 namespace coherent {
 
 struct PixelBuffer {
     int width = 0, height = 0, channels = 0;
     bool is_float = false;       // float32 values, else uint8 read as value / 255
-    std::vector<uint8_t> bytes;  // rows top to bottom, channels interleaved
+    std::vector<uint8_t, HugePageAllocator<uint8_t>> bytes;  // rows top to bottom, channels interleaved
     size_t zeroed = 0;           // NaN or infinite values set to 0 (warned about at every use)
 
     size_t value_bytes() const { return is_float ? sizeof(float) : 1; }

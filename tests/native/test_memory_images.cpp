@@ -149,5 +149,20 @@ TEST(MemoryImages, UnusedRetainedBuffersStayWithinTheLimit) {
     images.set_retention_limit(size_t(1024) << 20);
 }
 
+// Texel buffers of 2 MiB and more start on a huge-page boundary (so the
+// kernel can back them with transparent huge pages); smaller ones are
+// ordinary allocations. Either way every byte is usable.
+TEST(MemoryImages, LargePixelBuffersStartOnAHugePageBoundary) {
+    PixelBuffer big, small;
+    big.bytes.resize(size_t(3) << 20, 7);
+    small.bytes.resize(1000, 9);
+    EXPECT_EQ(reinterpret_cast<uintptr_t>(big.bytes.data()) % (size_t(2) << 20), 0u);
+    EXPECT_EQ(big.bytes.front() + big.bytes.back(), 14);
+    EXPECT_EQ(small.bytes.front() + small.bytes.back(), 18);
+    PixelBuffer copy = big;  // the allocator travels with the buffer
+    EXPECT_EQ(reinterpret_cast<uintptr_t>(copy.bytes.data()) % (size_t(2) << 20), 0u);
+    EXPECT_EQ(copy.bytes, big.bytes);
+}
+
 }  // namespace
 }  // namespace coherent
