@@ -8,8 +8,12 @@
 #include <OpenImageIO/imageio.h>
 #include <OpenImageIO/texture.h>
 
+#include <sys/stat.h>
+
 #include <cmath>
 #include <cstring>
+#include <map>
+#include <optional>
 
 namespace coherent {
 
@@ -77,6 +81,50 @@ OIIO::TextureSystem* process_texture_system() {
     return ts;
 }
 
+// What tells a file's contents apart between renders without reading it:
+// its size, inode and modification and change times (ns). The add-on keys
+// the image files it hands over as pixels by size and modification time too.
+struct FileStamp {
+    off_t size = 0;
+    ino_t inode = 0;
+    int64_t modified_ns = 0, changed_ns = 0;
+    bool operator==(const FileStamp& o) const {
+        return size == o.size && inode == o.inode && modified_ns == o.modified_ns && changed_ns == o.changed_ns;
+    }
+};
+
+std::optional<FileStamp> stamp_of(const std::string& path) {
+    struct stat st;
+    if (::stat(path.c_str(), &st) != 0) return std::nullopt;
+    const auto ns = [](const timespec& t) { return int64_t(t.tv_sec) * 1000000000 + int64_t(t.tv_nsec); };
+    return FileStamp{st.st_size, st.st_ino, ns(st.st_mtim), ns(st.st_ctim)};
+}
+
+// The image files whose tiles the process's texture system holds, as they
+// were when it read them. A render keeps the tiles of a file that is
+// unchanged since (an F12 re-render decoded every texture file again) and
+// has OIIO forget those of a file that changed or went.
+class HeldFiles {
+public:
+    static HeldFiles& instance() {
+        static HeldFiles* held = new HeldFiles;  // never destroyed, as the texture system
+        return *held;
+    }
+    void refresh(OIIO::TextureSystem& ts, const std::string& path) {
+        const std::optional<FileStamp> now = stamp_of(path);
+        std::lock_guard<std::mutex> lock(mutex_);
+        const auto it = stamps_.find(path);
+        if (now && it != stamps_.end() && it->second == *now) return;
+        ts.invalidate(OIIO::ustring(path), true);
+        if (now) stamps_[path] = *now;
+        else if (it != stamps_.end()) stamps_.erase(it);
+    }
+
+private:
+    std::mutex mutex_;
+    std::map<std::string, FileStamp> stamps_;
+};
+
 struct TextureStore::Oiio {
     OIIO::TextureSystem* ts = nullptr;
 };
@@ -88,13 +136,12 @@ TextureStore::TextureStore(size_t cache_megabytes) : oiio_(std::make_unique<Oiio
     MemoryImages::instance().set_retention_limit(cache_megabytes << 20);
 }
 
-// Files are forgotten (a file rewritten within the second of its modification
-// time must still be read again); in-memory images are released, and those the
-// registry drops are forgotten.
+// In-memory images are released, and those the registry drops are
+// forgotten. Files stay cached: the next store that adds one checks it
+// (HeldFiles), and OIIO's memory limit bounds what stays.
 TextureStore::~TextureStore() {
     for (const auto& image : images_)
         if (image->in_memory) forget(MemoryImages::instance().release(image->path));
-        else if (!image->path.empty()) oiio_->ts->invalidate(OIIO::ustring(image->path), true);
 }
 
 void TextureStore::forget(const std::vector<std::string>& names) {
@@ -118,6 +165,7 @@ void TextureStore::check_image(Image& image) {
 }
 
 uint32_t TextureStore::add_file(const std::string& path, const std::string& label) {
+    HeldFiles::instance().refresh(*oiio_->ts, path);
     auto image = std::make_unique<Image>();
     image->path = path;
     image->label = label;

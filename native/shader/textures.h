@@ -1,6 +1,7 @@
 // Image textures of a scene. Image files are looked up through OpenImageIO's
 // TextureSystem (its ImageCache tiles, caches and MIP-maps them under one
-// memory limit). Images that exist only inside the host application (packed,
+// memory limit; a file's tiles outlive the store while the file's size,
+// inode and times stay the same). Images that exist only inside the host application (packed,
 // generated or painted in Blender) come as whole pixel buffers (bytes stay
 // bytes, floats floats; memory_images.h) and are filtered straight from that
 // buffer as Cycles' CPU kernel does (image_filter.h): for pixels already in

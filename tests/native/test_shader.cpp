@@ -2,9 +2,17 @@
 // hand-computed values, and the OIIO-backed texture store.
 #include <gtest/gtest.h>
 
+#include <OpenImageIO/imageio.h>
+#include <fcntl.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
 #include <algorithm>
 #include <bit>
 #include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <string>
 #include <vector>
 
 #include "scene/scene.h"
@@ -187,6 +195,42 @@ TEST(TextureStore, MissingAndEmptyImagesAreMagentaWithAWarning) {
         EXPECT_EQ(c[1], 0.0f);
         EXPECT_EQ(c[2], 1.0f);
     }
+}
+
+// A 4 x 4 PNG of one colour at `path`, written in place (same inode), and its
+// modification time set to `seconds` (a later save of the file).
+void write_flat_png(const std::string& path, uint8_t r, uint8_t g, uint8_t b, time_t seconds) {
+    std::vector<uint8_t> px(4 * 4 * 3);
+    for (size_t i = 0; i < px.size(); i += 3) px[i] = r, px[i + 1] = g, px[i + 2] = b;
+    auto out = OIIO::ImageOutput::create(path);
+    ASSERT_TRUE(out);
+    ASSERT_TRUE(out->open(path, OIIO::ImageSpec(4, 4, 3, OIIO::TypeDesc::UINT8)));
+    ASSERT_TRUE(out->write_image(OIIO::TypeDesc::UINT8, px.data()));
+    out->close();
+    const timespec times[2] = {{seconds, 0}, {seconds, 0}};
+    ASSERT_EQ(utimensat(AT_FDCWD, path.c_str(), times, 0), 0);
+}
+
+// Image files stay in OpenImageIO's cache from one store (one render) to the
+// next, so a later store must see a file that changed since, or went.
+TEST(TextureStore, ALaterStoreSeesAnImageFileThatChangedOrWent) {
+    const std::string path =
+        (std::filesystem::temp_directory_path() / ("coherent_held_" + std::to_string(getpid()) + ".png")).string();
+    const auto red_of = [&](const char* label) {
+        TextureStore store(64);
+        const uint32_t id = store.add_file(path, label);
+        float c[4];
+        store.lookup(id, 0.5f, 0.5f, TextureLookup{}, c);
+        return std::vector<float>{c[0], c[1], c[2], float(store.warnings().size())};
+    };
+    write_flat_png(path, 255, 0, 0, 1700000000);
+    EXPECT_EQ(red_of("first"), (std::vector<float>{1.0f, 0.0f, 0.0f, 0.0f}));
+    EXPECT_EQ(red_of("unchanged"), (std::vector<float>{1.0f, 0.0f, 0.0f, 0.0f}));
+    write_flat_png(path, 0, 255, 0, 1700000001);  // same size, same inode, saved a second later
+    EXPECT_EQ(red_of("changed"), (std::vector<float>{0.0f, 1.0f, 0.0f, 0.0f}));
+    std::remove(path.c_str());
+    const std::vector<float> gone = red_of("gone");  // magenta with a warning, not the cached green
+    EXPECT_EQ(gone, (std::vector<float>{1.0f, 0.0f, 1.0f, 1.0f}));
 }
 
 }  // namespace
