@@ -349,20 +349,25 @@ void row_weights(const Image& img, ptrdiff_t p, ptrdiff_t q, const float* __rest
 //
 // For every pixel p (a window's centre), a weighted least-squares fit of the
 // demodulated colour of its window's pixels q against their regressors
-// relative to p's (Bitterli et al. 2016): 1, albedo_q - albedo_p,
-// normal_q - normal_p and the screen offset over the window radius. A
-// smooth gradient of light across the window is then fitted, not averaged
-// into a blur, and the weights can be wider than a weighted mean's.
+// relative to p's (Bitterli et al. 2016): 1, albedo_q - albedo_p and the
+// screen offset over the window radius. A smooth gradient of light across
+// the window is then fitted, not averaged into a blur, and the weights can
+// be wider than a weighted mean's. The normals weigh (row_weights) but are
+// no regressors: with them, 9 regressors instead of 6 cost 72 instead of 39
+// accumulations per pair, and the 9 x 9 window they pay for beat the 7 x 7
+// window with normals on 9 of 12 scenes at 128 x 128 (the dragon and the
+// bunny lost 2 % and 0.5 %; docs/results/denoise.md).
 // Collaborative: every pixel's output is the weighted mean of the fits of
 // all windows that contain it, each evaluated at that pixel. The weights
 // are symmetric (w(p, q) = w(q, p): the patch and feature distances are),
 // so the windows containing p are those of p's own offsets, and both steps
 // run the same loop over offsets: first the normal equations of each
 // centre, then (after every fit is solved) the evaluations.
-constexpr int kRegressors = 9;  // 1, albedo (3), normal (3), dx / r, dy / r
+constexpr int kAlbedoRegressors = 3;
+constexpr int kRegressors = 1 + kAlbedoRegressors + 2;  // 1, albedo (3), dx / r, dy / r
 constexpr int kMoments = kRegressors * (kRegressors + 1) / 2;
 // Ridge on the slopes, relative to the sum of weights: a regressor that
-// hardly varies over a window (a flat wall's normal) gets no slope from noise.
+// hardly varies over a window (a flat wall's albedo) gets no slope from noise.
 constexpr double kRidge = 0.1;
 
 // Per band: the normal equations of each half (planes of the band's pixels):
@@ -383,14 +388,14 @@ struct RowScratch {
 // z of the pairs (p, q) of one row, pointers advanced to the first pair.
 void row_regressors(const Image& img, ptrdiff_t p, ptrdiff_t q, int count, float sx, float sy, RowScratch& s) {
     for (int x = 0; x < count; ++x) s.z[0][size_t(x)] = 1.0f;
-    for (int i = 0; i < 6; ++i) {
-        const float* __restrict fp = img.plane(kAlbedo + i) + p;  // kNormal follows kAlbedo
+    for (int i = 0; i < kAlbedoRegressors; ++i) {
+        const float* __restrict fp = img.plane(kAlbedo + i) + p;
         const float* __restrict fq = img.plane(kAlbedo + i) + q;
         float* __restrict z = s.z[1 + i].data();
         for (int x = 0; x < count; ++x) z[x] = fq[x] - fp[x];
     }
-    std::fill_n(s.z[7].data(), count, sx);
-    std::fill_n(s.z[8].data(), count, sy);
+    std::fill_n(s.z[1 + kAlbedoRegressors].data(), count, sx);
+    std::fill_n(s.z[2 + kAlbedoRegressors].data(), count, sy);
 }
 
 void accumulate_row(const float* const* colour, ptrdiff_t q, ptrdiff_t o, int count, const RowScratch& s, int half,

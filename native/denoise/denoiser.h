@@ -18,7 +18,7 @@
 //      Its output guides the second pass's weights: its patches are less
 //      noisy than the raw halves'.
 //   4. Second pass: per pixel, a weighted least-squares fit of the colour of
-//      its window against 1, albedo, normal and screen offset; every pixel's
+//      its 9 x 9 window against 1, albedo and screen offset; every pixel's
 //      output averages the fits of all windows containing it (collaborative).
 //      Two candidates (7 x 7 and 3 x 3 patches) are selected per pixel by
 //      their error estimated from the other half.
@@ -40,7 +40,7 @@ namespace coherent {
 struct DenoiseOptions {
     // Scales the colour tolerance k: 0 keeps only pixels equal within noise.
     float strength = 1.0f;
-    int window_radius = 3;  // regression window (2r+1)^2
+    int window_radius = 4;  // regression window (2r+1)^2
     int patch_radius = 3;   // patch (2f+1)^2 of the colour distance
     int threads = 0;        // 0 = all cores
     // Polled while filtering (null: none): once set, denoise() stops within
