@@ -53,10 +53,11 @@ public:
     const shading::PreShaded* at(size_t i) const { return slot_[i] < 0 ? nullptr : &pre_[size_t(slot_[i])]; }
 
     size_t bytes() const {
-        return slot_.capacity() * sizeof(int32_t) + pre_.capacity() * sizeof(shading::PreShaded) +
-               (keys_.capacity() + sorted_.capacity()) * sizeof(uint64_t) + geometry_.capacity() * sizeof(ShadingGeometry) +
-               paths_.capacity() * sizeof(LightPathInfo) + materials_.capacity() * sizeof(Material) +
-               normals_.capacity() * sizeof(Vec3f);
+        return (slot_.capacity() + starts_.capacity()) * sizeof(int32_t) +
+               pre_.capacity() * sizeof(shading::PreShaded) +
+               (keys_.capacity() + sorted_.capacity()) * sizeof(uint64_t) +
+               geometry_.capacity() * sizeof(ShadingGeometry) + paths_.capacity() * sizeof(LightPathInfo) +
+               materials_.capacity() * sizeof(Material) + normals_.capacity() * sizeof(Vec3f);
     }
 
 private:
