@@ -7,6 +7,8 @@
 #include <cstdlib>
 #include <new>
 
+#include "../core/huge_page_allocator.h"
+
 namespace coherent {
 
 template <class T, size_t Alignment>
@@ -23,6 +25,9 @@ struct AlignedAllocator {
     AlignedAllocator(const AlignedAllocator<U, Alignment>&) {}
 
     T* allocate(size_t n) {
+        // Large arrays (a big scene's nodes and triangles, read at random)
+        // on huge pages, 2 MiB-aligned: fewer TLB misses per traversal.
+        if (n * sizeof(T) >= HugePageAllocator<T>::kHugePage) return HugePageAllocator<T>().allocate(n);
         // aligned_alloc requires the size to be a multiple of the alignment.
         size_t bytes = (n * sizeof(T) + Alignment - 1) / Alignment * Alignment;
         if (bytes == 0) bytes = Alignment;

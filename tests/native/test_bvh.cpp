@@ -9,6 +9,7 @@
 
 #include <tbb/task_arena.h>
 
+#include "accel/aligned_allocator.h"
 #include "accel/bvh.h"
 #include "bvh_test_meshes.h"
 
@@ -152,6 +153,16 @@ void expect_matches_brute_force(const Bvh& bvh, const std::vector<Vec3f>& soup, 
 }
 
 }  // namespace
+
+// Node and triangle arrays start on their cache-line alignment, and those of
+// 2 MiB and more (a large scene's) on a huge-page boundary, so the kernel can
+// back them with transparent huge pages.
+TEST(Bvh, AlignedArraysOfTwoMegabytesStartOnAHugePage) {
+    std::vector<float, AlignedAllocator<float, 64>> small(1000, 1.0f), large(size_t(1) << 20, 2.0f);
+    EXPECT_EQ(reinterpret_cast<uintptr_t>(small.data()) % 64, 0u);
+    EXPECT_EQ(reinterpret_cast<uintptr_t>(large.data()) % (size_t(2) << 20), 0u);
+    EXPECT_EQ(small.back() + large.back(), 3.0f);
+}
 
 TEST(Bvh, EmptyInputHitsNothing) {
     Bvh bvh;
