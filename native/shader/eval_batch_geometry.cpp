@@ -14,6 +14,7 @@
 #include "../core/simd.h"
 #include "../scene/scene.h"
 #include "eval_batch_kernels.h"
+#include "eval_batch_rows.h"
 #include "eval_registers.h"
 #include "program.h"
 
@@ -21,25 +22,21 @@ namespace coherent::eval_detail {
 
 namespace {
 
-using V = simd::vfloat8;
 using B = simd::vbool8;
-
-struct V3 {
-    V x, y, z;
-};
 
 V3 operator+(const V3& a, const V3& b) { return {a.x + b.x, a.y + b.y, a.z + b.z}; }
 V3 operator-(const V3& a, const V3& b) { return {a.x - b.x, a.y - b.y, a.z - b.z}; }
 V3 operator*(const V3& a, V s) { return {a.x * s, a.y * s, a.z * s}; }
-V dot(const V3& a, const V3& b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
 V3 cross(const V3& a, const V3& b) { return {a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x}; }
 V negate(V a) { return V(_mm256_xor_ps(a.v, _mm256_set1_ps(-0.0f))); }
 V3 negate(const V3& a) { return {negate(a.x), negate(a.y), negate(a.z)}; }
-V3 select(B m, const V3& t, const V3& f) { return {simd::select(m, t.x, f.x), simd::select(m, t.y, f.y), simd::select(m, t.z, f.z)}; }
+V3 select(B m, const V3& t, const V3& f) {
+    return {simd::select(m, t.x, f.x), simd::select(m, t.y, f.y), simd::select(m, t.z, f.z)};
+}
 
 // node_math.h's safe_normalize.
 V3 safe_normalize(const V3& a) {
-    const V len = V(_mm256_sqrt_ps(dot(a, a).v));
+    const V len = V(_mm256_sqrt_ps(dot_(a, a).v));
     return select(len != V(0.0f), a * (V(1.0f) / len), a);
 }
 
@@ -53,16 +50,6 @@ struct Lanes {
     alignas(32) float sign[8];
     V3 row3(const float (&r)[3][8]) const { return {V::load(r[0]), V::load(r[1]), V::load(r[2])}; }
 };
-
-V3 load3(const BatchRegisters& b, uint16_t reg, size_t l) {
-    return {V::loadu(b.row(reg) + l), V::loadu(b.row(uint16_t(reg + 1)) + l), V::loadu(b.row(uint16_t(reg + 2)) + l)};
-}
-
-void store3(const BatchRegisters& b, uint16_t reg, size_t l, const V3& x) {
-    simd::storeu(b.row(reg) + l, x.x);
-    simd::storeu(b.row(uint16_t(reg + 1)) + l, x.y);
-    simd::storeu(b.row(uint16_t(reg + 2)) + l, x.z);
-}
 
 bool on_flat_mesh(const ShadingGeometry* g, size_t live) {
     for (size_t l = 0; l < live; ++l)
@@ -78,6 +65,7 @@ bool uv_rows(const Scene& scene, const ShaderInstr& in, const ShadingGeometry* g
     for (size_t l = 0; l < live; ++l)
         if (uvs.size() < 3 * size_t(g[l].tri) + 3) return false;
     if (in.out[0] == kNoRegister) return true;
+    const Rows rows{b};
     for (size_t l0 = 0; l0 < b.blocks * 8; l0 += 8) {
         alignas(32) float u[8], v[8], c[3][2][8];
         for (size_t k = 0; k < 8; ++k) {
@@ -91,7 +79,7 @@ bool uv_rows(const Scene& scene, const ShaderInstr& in, const ShadingGeometry* g
         const auto lerp = [&](int axis) {
             return V::load(c[0][axis]) * w + V::load(c[1][axis]) * gu + V::load(c[2][axis]) * gv;
         };
-        store3(b, in.out[0], l0, {lerp(0), lerp(1), V(0.0f)});
+        rows.set(in.out[0], l0, V3{lerp(0), lerp(1), V(0.0f)});
     }
     return true;
 }
@@ -102,6 +90,7 @@ bool tangent_normal_map_rows(const Scene& scene, const ShaderProgram& prog, cons
     for (size_t l = 0; l < live; ++l)
         if (sh.tangents.size() < 3 * size_t(g[l].tri) + 3) return false;
     if (in.out[0] == kNoRegister) return true;
+    const Rows rows{b};
     for (size_t l0 = 0; l0 < b.blocks * 8; l0 += 8) {
         Lanes s;
         for (size_t k = 0; k < 8; ++k) {
@@ -116,8 +105,8 @@ bool tangent_normal_map_rows(const Scene& scene, const ShaderProgram& prog, cons
         }
         const B front(_mm256_castsi256_ps(_mm256_load_si256(reinterpret_cast<const __m256i*>(s.front))));
         const V3 n = s.row3(s.n), ng = s.row3(s.ng), wo = s.row3(s.wo);
-        const V strength = V::loadu(b.row(in.in[0]) + l0);
-        V3 color = load3(b, in.in[1], l0);
+        const V strength = rows.f(in.in[0], l0);
+        V3 color = rows.v(in.in[1], l0);
         color = {color.x * V(2.0f) - V(1.0f), color.y * V(2.0f) - V(1.0f), color.z * V(2.0f) - V(1.0f)};
 
         const V3 unflipped = select(front, n, negate(n));
@@ -137,15 +126,15 @@ bool tangent_normal_map_rows(const Scene& scene, const ShaderProgram& prog, cons
         const B keep_n = black | ~finite;
         // ensure_valid_reflection's test; lanes that fail it are tilted by the
         // scalar code below.
-        const V3 r = mapped * (V(2.0f) * dot(mapped, wo)) - wo;
-        const V scaled = V(0.9f) * dot(ng, wo);
+        const V3 r = mapped * (V(2.0f) * dot_(mapped, wo)) - wo;
+        const V scaled = V(0.9f) * dot_(ng, wo);
         const V threshold = simd::select(V(0.01f) < scaled, V(0.01f), scaled);
-        const B valid = dot(ng, r) >= threshold;
+        const B valid = dot_(ng, r) >= threshold;
         const V3 out = select(keep_n, n, mapped);
         const size_t live_here = std::min<size_t>(8, live - l0);
         const int scalar = simd::movemask(~(valid | keep_n)) & ((1 << live_here) - 1);
         if (!scalar) {
-            store3(b, in.out[0], l0, out);
+            rows.set(in.out[0], l0, out);
             continue;
         }
         alignas(32) float x[3][8];

@@ -4,6 +4,7 @@
 // its outputs, as the scalar code reads before it writes, so an output may
 // share rows with an input.
 #include "eval_batch_kernels.h"
+#include "eval_batch_rows.h"
 
 #include <cfloat>
 #include <cmath>
@@ -18,12 +19,6 @@ namespace {
 
 using shader::MathOp;
 using shader::VectorMathOp;
-using V = simd::vfloat8;
-
-struct V3 {
-    V x, y, z;
-};
-
 // std::fmax(a, c) for a constant c (never NaN): a NaN `a` gives c, equal
 // operands the second, as glibc's fmaxf (maxss) and vmaxps both return it.
 // Only constant second operands: GCC treats fmin/fmax as commutative and may
@@ -37,22 +32,6 @@ V floor_(V a) { return V(_mm256_floor_ps(a.v)); }
 V ceil_(V a) { return V(_mm256_ceil_ps(a.v)); }
 V sqrt_(V a) { return V(_mm256_sqrt_ps(a.v)); }
 V safe_divide_(V a, V b) { return select(b != V(0.0f), a / b, V(0.0f)); }
-V dot_(const V3& a, const V3& b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
-
-struct Rows {
-    const BatchRegisters& b;
-    V f(uint16_t reg, size_t l) const { return V::loadu(b.row(reg) + l); }
-    V3 v(uint16_t reg, size_t l) const { return {f(reg, l), f(uint16_t(reg + 1), l), f(uint16_t(reg + 2), l)}; }
-    void set(uint16_t reg, size_t l, V x) const {
-        if (reg != kNoRegister) storeu(b.row(reg) + l, x);
-    }
-    void set(uint16_t reg, size_t l, const V3& x) const {
-        if (reg == kNoRegister) return;
-        storeu(b.row(reg) + l, x.x);
-        storeu(b.row(uint16_t(reg + 1)) + l, x.y);
-        storeu(b.row(uint16_t(reg + 2)) + l, x.z);
-    }
-};
 
 template <class F>
 void for_blocks(const BatchRegisters& b, F f) {

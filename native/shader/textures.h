@@ -1,8 +1,8 @@
 // Image textures of a scene. Image files are looked up through OpenImageIO's
 // TextureSystem (its ImageCache tiles, caches and MIP-maps them under one
 // memory limit; a file's tiles outlive the store while the file's size,
-// inode and times stay the same). Images that exist only inside the host application (packed,
-// generated or painted in Blender) come as whole pixel buffers (bytes stay
+// inode and times stay the same). Images that exist only inside the host
+// application (packed, generated or painted in Blender) come as whole pixel buffers (bytes stay
 // bytes, floats floats; memory_images.h) and are filtered straight from that
 // buffer as Cycles' CPU kernel does (image_filter.h): for pixels already in
 // RAM a cache adds only work (bilinear over a 2048x2048 byte image: 60 ns per
