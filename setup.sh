@@ -20,7 +20,7 @@ PACKAGES=(
   blender python3 python3-dev python3-numpy python3-pytest python3-matplotlib
   pybind11-dev libtbb-dev libopenimageio-dev openimageio-tools python3-openimageio
   libtinygltf-dev nlohmann-json3-dev libstb-dev
-  libgtest-dev libembree-dev
+  libgtest-dev libembree-dev libxxhash-dev
   xvfb libgl1-mesa-dri libglx-mesa0
   slurm-wlm munge
 )

@@ -445,7 +445,8 @@ class SceneExporter:
                                                      fold=getattr(native, "fold_shader_constants", None),
                                                      images=images.ImageExporter(
                                                          self.result.scene,
-                                                         getattr(native, "image_file_format", None)))
+                                                         getattr(native, "image_file_format", None),
+                                                         getattr(native, "content_hash", None)))
         self.shading = None  # ShadingRequest of the materials, set by export()
         self.mesh_cache = mesh_cache if mesh_cache is not None else MeshCache()
         self.used_keys = set()  # mesh_cache keys this export rendered

@@ -2,7 +2,12 @@
 // native/shader/program.h.
 #include "bind_shading.h"
 
+#include <cstdio>
 #include <sstream>
+
+// Header-only: the hash functions compile into this module (libxxhash-dev ships the header).
+#define XXH_INLINE_ALL
+#include <xxhash.h>
 
 #include "scene/mesh_islands.h"
 #include "shader/eval.h"
@@ -246,6 +251,27 @@ in texture_stats()['warnings'] under `label`.)doc");
         py::arg("path"),
         "{'channels', 'wide'} from an image file's header (OpenImageIO, no pixels decoded); 'wide': values of "
         "more than 8 bits, which Blender holds as float. None when the file cannot be opened.");
+    m.def(
+        "content_hash",
+        [](const py::buffer& data) {
+            // C-contiguous or refused: a strided view's bytes are not where its pointer says.
+            Py_buffer view;
+            if (PyObject_GetBuffer(data.ptr(), &view, PyBUF_C_CONTIGUOUS) != 0) throw py::error_already_set();
+            const size_t bytes = size_t(view.len);
+            XXH64_hash_t hash;
+            {
+                // Tens of MB of packed images hash here on every render: let Blender's other threads run.
+                py::gil_scoped_release release;
+                hash = XXH3_64bits(view.buf, bytes);
+            }
+            PyBuffer_Release(&view);
+            char text[40];
+            std::snprintf(text, sizeof text, "%zu %016llx", bytes, static_cast<unsigned long long>(hash));
+            return std::string(text);
+        },
+        py::arg("data"),
+        "'<length> <XXH3-64 hex>' of a buffer's bytes (bytes, numpy array, ctypes array: any contiguous buffer), "
+        "read in place. The add-on's change detector for images held in Blender's memory (addon/coherent/images.py).");
     m.def(
         "fold_shader_constants",
         [](const py::dict& program) {

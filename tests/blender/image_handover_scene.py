@@ -13,6 +13,13 @@
 # each of COHERENT's renders, so its "Coherent: finished ..." line (images
 # reused) can be matched to it.
 #
+# Then an image packed from an uncompressed TGA is repacked (Image > Reload)
+# after another TGA of the same length (other texels) was saved over that
+# file: rendered by Cycles, then
+# twice by COHERENT (HANDOVER_RENDER repacked 0 / 1), whose first render must
+# see the new bytes although length and name are unchanged:
+# OUT_DIR/repacked_<engine>[_again].exr, after OUT_DIR/repacked_before_coherent.exr.
+#
 # Then the image with alpha mode Straight, packed, file-backed and as a
 # generated float image (colour space Linear), with Linear and Closest
 # filtering, its Alpha output unused or driving the Emission strength:
@@ -33,19 +40,58 @@ import node_scenes  # noqa: E402
 WIDTH, HEIGHT = 13, 11
 
 
-def pattern():
+def pattern(seed=11):
     """RGBA float pixels, rows bottom-up as Image.pixels takes them: byte values exactly."""
-    rng = np.random.default_rng(11)
+    rng = np.random.default_rng(seed)
     bytes_ = rng.integers(0, 256, size=(HEIGHT, WIDTH, 4))
     bytes_[..., 3] = np.maximum(bytes_[..., 3], 40)
     return (bytes_ / 255.0).astype(np.float32)
 
 
-def painted_image(name):
+def painted_image(name, seed=11):
     image = bpy.data.images.new(name, WIDTH, HEIGHT, alpha=True, float_buffer=False)
     image.colorspace_settings.name = "sRGB"  # before the pixels: changing it regenerates the image
-    image.pixels.foreach_set(pattern().ravel())
+    image.pixels.foreach_set(pattern(seed).ravel())
     return image
+
+
+def tga_bytes(out_dir, seed):
+    """An uncompressed TGA of pattern(seed): its length depends only on the image's size."""
+    image = painted_image(f"tga_{seed}", seed)
+    path = os.path.join(out_dir, f"pattern_{seed}.tga")
+    image.filepath_raw = path
+    image.file_format = "TARGA_RAW"
+    image.save()
+    with open(path, "rb") as f:
+        return path, f.read()
+
+
+def render_repacked(scene, material, out_dir):
+    path, _ = tga_bytes(out_dir, 11)
+    _, other = tga_bytes(out_dir, 12)
+    image = bpy.data.images.load(path, check_existing=False)
+    image.name = "repacked"
+    image.pack()
+    assert len(image.packed_file.data) == len(other), "the two TGAs must have the same length"
+    image.alpha_mode = "CHANNEL_PACKED"
+    image_tree(material, image)
+    scene.render.engine = "COHERENT"
+    render(scene, out_dir, "repacked_before_coherent")
+    # Blender's Reload re-packs a packed image from its file: the user saved other texels over it.
+    with open(path, "wb") as f:
+        f.write(other)
+    image.reload()
+    assert image.packed_file.data == other
+    # The add-on hashes a packed file where Blender holds it (images.packed_bytes), not a copy.
+    from coherent import images as coherent_images
+    view = coherent_images.packed_bytes(image.packed_file)
+    print(f"PACKED_VIEW {type(view).__name__} {bytes(view) == other}", flush=True)
+    scene.render.engine = "CYCLES"
+    render(scene, out_dir, "repacked_cycles")
+    scene.render.engine = "COHERENT"
+    for n, suffix in enumerate(("", "_again")):
+        print(f"HANDOVER_RENDER repacked {n}", flush=True)
+        render(scene, out_dir, f"repacked_coherent{suffix}")
 
 
 def make_images(out_dir):
@@ -117,6 +163,7 @@ def main():
         for n, suffix in enumerate(("", "_again")):
             print(f"HANDOVER_RENDER {case} {n}", flush=True)
             render(scene, out_dir, f"{case}_coherent{suffix}")
+    render_repacked(scene, material, out_dir)
     render_straight_cases(scene, material, out_dir)
 
 

@@ -7,7 +7,8 @@
 # for pixel up to float rounding (as the per-node image cases of
 # test_shader_nodes.py), and the second render must reuse the in-memory
 # images handed over by the first (its stats line says so) with the same
-# pixels. The same image with Straight alpha (packed, file-backed, float,
+# pixels. An image repacked from other bytes of the same length must render
+# its new texels (as Cycles does) and be handed over again. The same image with Straight alpha (packed, file-backed, float,
 # Linear and Closest, Alpha unused and used) must agree with Cycles too:
 # Cycles associates its texels before filtering (image_handover_scene.py).
 
@@ -20,7 +21,7 @@ import blender_helpers as bh
 
 SCRIPT = bh.REPO_ROOT / "tests" / "blender" / "image_handover_scene.py"
 ABS_TOL, REL_TOL = 2e-5, 2e-5  # as test_shader_nodes.py
-CASES = ("packed", "file", "generated")
+CASES = ("packed", "file", "generated", "repacked")
 STRAIGHT_CASES = [f"straight_{source}_{interp}_{alpha}" for source in ("packed", "file", "float")
                   for interp in ("linear", "closest") for alpha in ("unused", "used")]
 
@@ -68,5 +69,18 @@ def test_second_render_reuses_in_memory_images(handover):
                                      stdout, flags=re.S):
         reused[(case, int(n))] = int(count)
     # In memory: handed over by the first render, reused by the second. Files: OIIO reads them by path.
+    # Repacked from other bytes of the same length: handed over again, then reused.
     assert reused == {("packed", 0): 0, ("packed", 1): 1, ("generated", 0): 0, ("generated", 1): 1,
-                      ("file", 0): 0, ("file", 1): 0}, stdout[-3000:]
+                      ("file", 0): 0, ("file", 1): 0, ("repacked", 0): 0, ("repacked", 1): 1}, stdout[-3000:]
+
+
+def test_repacked_image_is_not_the_one_held_before(handover):
+    out, _ = handover
+    before, after = _rgb(out / "repacked_before_coherent.exr"), _rgb(out / "repacked_coherent.exr")
+    assert np.abs(before - after).max() > 0.05, "the two packed versions render alike: the case tests nothing"
+
+
+def test_packed_files_are_hashed_in_place(handover):
+    _, stdout = handover
+    # A ctypes array over Blender's PackedFile.data (no copy), with the bytes of PackedFile.data.
+    assert re.search(r"PACKED_VIEW c_char_Array_\d+ True", stdout), stdout[-3000:]
