@@ -24,7 +24,9 @@ cache; the sRGB albedos, straight alpha, are associated and handed over in
 memory as Cycles associates them on load). Times are the wall time of
 bpy.ops.render.render (sync/export, image hand-over, BVH, render), medians.
 ratio = textured / untextured seconds per engine; the target is
-COHERENT's ratio <= Cycles' ratio.
+COHERENT's ratio <= Cycles' ratio. Also printed: that quotient per repetition
+(paired_ratios), whose median and bootstrap interval are steadier than the
+quotient of the per-column medians on a machine whose speed drifts.
 """
 
 import os
@@ -194,6 +196,24 @@ def bench_in_blender(size, samples, threads, repeats, out_dir, image_dir):
                 print(f"TWIN_SECONDS {engine} {which} {rep} {seconds:.4f}", flush=True)
 
 
+def paired_ratios(times):
+    """Per repetition: (COHERENT textured / untextured) / (Cycles textured / untextured). The machine's speed
+    drifts over seconds to minutes (other jobs share its cores and L3), which moves the per-column medians
+    apart; one repetition's four renders share their minute, so their ratio cancels most of the drift."""
+    per_engine = {e: [t / u for u, t in zip(times[(e, "untextured")], times[(e, "textured")])] for e in ENGINES}
+    return [c / y for c, y in zip(per_engine["COHERENT"], per_engine["CYCLES"])]
+
+
+def bootstrap_interval(values, level=0.9, rounds=4000, seed=1):
+    """The `level` interval of the median of `values`, by resampling them with replacement."""
+    import random
+
+    rng = random.Random(seed)
+    medians = sorted(statistics.median(rng.choices(values, k=len(values))) for _ in range(rounds))
+    tail = (1.0 - level) / 2.0
+    return medians[int(tail * rounds)], medians[int((1.0 - tail) * rounds) - 1]
+
+
 def main():
     import argparse
 
@@ -232,6 +252,11 @@ def main():
         print(f"| {engine} | {u:.2f} | {t:.2f} | {ratio[engine]:.3f} | {runs} |")
     print(f"COHERENT ratio / Cycles ratio = {ratio['COHERENT'] / ratio['CYCLES']:.3f} "
           f"(target <= 1: {'met' if ratio['COHERENT'] <= ratio['CYCLES'] else 'NOT met'})")
+    paired = paired_ratios(times)
+    low, high = bootstrap_interval(paired)
+    print(f"Paired, per repetition (the four renders of one repetition run back to back, so a slow minute of "
+          f"this shared machine slows all four): median {statistics.median(paired):.3f}, 90 % interval of the "
+          f"median {low:.3f}-{high:.3f} (bootstrap), {sum(q <= 1.0 for q in paired)} of {len(paired)} at or below 1")
     if splits:
         print("COHERENT's own split, last untextured and textured runs:")
         print("  " + splits[-2])

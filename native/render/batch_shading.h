@@ -112,7 +112,7 @@ private:
             const size_t i = size_t(keys_[j] & 0xFFFFFFFFu);
             const shading::PreShaded& p = pre_[size_t(slot_[i])];
             const ShaderProgram& prog = *ctx.scene->materials[p.sp.material].program;
-            geometry_[j] = shading::shading_geometry(ctx, state(i), *hit(i), p.sp, prog);
+            shading::fill_shading_geometry(ctx, state(i), *hit(i), p.sp, prog, geometry_[j]);
             if (prog.uses_light_path) {
                 paths_[j] = shading::hit_light_path(state(i), *hit(i));
                 geometry_[j].path = &paths_[j];

@@ -34,6 +34,9 @@ struct ShadingGeometry {
     // On an instance (scene/instance.h; else null): the prototype, its
     // triangle (`tri` is then meaningless) and the instance's transforms at
     // the ray's time. Attributes come from the prototype, in object space.
+    // Invariant: the transforms are read only where `prototype` is set
+    // (batches reuse their ShadingGeometry arrays and leave them stale
+    // elsewhere: render/path_state.h, fill_shading_geometry).
     const Prototype* prototype = nullptr;
     uint32_t prim = 0;
     Transform object_to_world, world_to_object;

@@ -449,5 +449,68 @@ TEST(ShaderBatch, RendersAreIdenticalWithBatchShadingOnAndOff) {
     }
 }
 
+// Base Color from the Object texture coordinate: on an instance the point
+// in its object space (the instance's transforms), elsewhere the world point.
+std::shared_ptr<ShaderProgram> object_coordinate_program() {
+    auto p = std::make_shared<ShaderProgram>();
+    p->constants.assign(8, 0.0f);
+    p->constants[3] = 1.0f;  // the fraction's operand
+    using M = shader::MathOp;
+    p->code = {instr(ShaderOp::TexCoord, uint16_t(TexCoordKind::Object), {0}, {}),
+               instr(ShaderOp::Math, uint16_t(M::Fraction), {4}, {0, 3, 3}),
+               instr(ShaderOp::Math, uint16_t(M::Fraction), {5}, {1, 3, 3}),
+               instr(ShaderOp::Math, uint16_t(M::Fraction), {6}, {2, 3, 3})};
+    p->outputs = {{ShaderField::BaseColor, 0, 4}};
+    return p;
+}
+
+// Batches reuse their ShadingGeometry arrays, and a hit that is not on an
+// instance leaves the transforms an instance hit wrote before it
+// (fill_shading_geometry): nothing may read them there. Here one program
+// runs on instanced quads (rotated, scaled, offset: far from the identity)
+// and on plain geometry, whose hits share batches; a read of the stale
+// transforms would change the plain hits' colour from the per-hit path's.
+TEST(ShaderBatch, InstancesAndPlainHitsShareBatchesWithoutSharingTransforms) {
+    Scene scene = test::lobes_scene(false);
+    uint32_t programs = 0;
+    for (Material& m : scene.materials)
+        if (m.closures[0].base_color.x == 0.7f || (m.closures[0].base_color.x == 0.8f && m.closures[0].base_color.y == 0.2f))
+            m.program = object_coordinate_program(), ++programs;
+    ASSERT_EQ(programs, 2u);  // the floor and the red sphere
+    const uint32_t floor_material = scene.material_of[0];
+    ASSERT_TRUE(scene.materials[floor_material].program);
+    const float pos[] = {-0.5f, -0.5f, 0.0f, 0.5f, -0.5f, 0.0f, 0.5f, 0.5f, 0.0f, -0.5f, 0.5f, 0.0f};
+    const uint32_t idx[] = {0, 1, 2, 0, 2, 3};
+    MeshInput quad;
+    quad.name = "tile";
+    quad.positions = pos, quad.vertex_count = 4, quad.indices = idx, quad.triangle_count = 2;
+    const uint32_t proto = scene.add_prototype(quad);
+    ASSERT_NE(proto, Scene::kNoPrototype);
+    std::vector<Transform> placements;
+    for (int k = 0; k < 4; ++k) {
+        Transform t;
+        const float a = 0.4f + 0.5f * float(k), scale = 0.9f + 0.3f * float(k);
+        t.m[0][0] = scale * std::cos(a), t.m[0][1] = -scale * std::sin(a);
+        t.m[1][0] = scale * std::sin(a), t.m[1][1] = scale * std::cos(a);
+        t.m[2][2] = scale;
+        t.m[0][3] = -2.5f + 1.6f * float(k), t.m[1][3] = -1.2f + 0.3f * float(k), t.m[2][3] = 0.01f + 0.02f * float(k);
+        placements.push_back(t);
+    }
+    ASSERT_EQ(scene.add_instances(proto, placements.data(), placements.size(), {floor_material}, "tiles"), 4u);
+    scene.finalize();
+    for (Traversal traversal : {Traversal::Packet, Traversal::Stream, Traversal::Wavefront}) {
+        RenderSettings rs;
+        rs.width = 40, rs.height = 36, rs.spp = 2, rs.seed = 5, rs.threads = 2, rs.max_bounces = 4;
+        rs.traversal = traversal;
+        rs.shader_batch = false;
+        const std::vector<float> scalar = test::render_combined(scene, rs);
+        rs.shader_batch = true;
+        const std::vector<float> batch = test::render_combined(scene, rs);
+        ASSERT_EQ(scalar.size(), batch.size());
+        EXPECT_EQ(std::memcmp(scalar.data(), batch.data(), scalar.size() * sizeof(float)), 0)
+            << "traversal " << int(traversal);
+    }
+}
+
 }  // namespace
 }  // namespace coherent
