@@ -419,6 +419,27 @@ std::shared_ptr<ShaderProgram> mirror_program() {
     return p;
 }
 
+// Renders `scene` with every traversal that shades in batches, with shader
+// batches off (each hit alone) and on: the images must be the same to the
+// bit, and lit (not an empty image that would agree trivially).
+void expect_batches_render_the_scalar_image(const Scene& scene, uint32_t seed) {
+    for (Traversal traversal : {Traversal::Packet, Traversal::Stream, Traversal::Wavefront}) {
+        RenderSettings rs;
+        rs.width = 40, rs.height = 36, rs.spp = 2, rs.seed = seed, rs.threads = 2, rs.max_bounces = 4;
+        rs.traversal = traversal;
+        rs.shader_batch = false;
+        const std::vector<float> scalar = test::render_combined(scene, rs);
+        rs.shader_batch = true;
+        const std::vector<float> batch = test::render_combined(scene, rs);
+        ASSERT_EQ(scalar.size(), batch.size());
+        EXPECT_EQ(std::memcmp(scalar.data(), batch.data(), scalar.size() * sizeof(float)), 0)
+            << "traversal " << int(traversal);
+        double sum = 0.0;
+        for (float x : batch) sum += x;
+        EXPECT_GT(sum, 0.0);
+    }
+}
+
 TEST(ShaderBatch, RendersAreIdenticalWithBatchShadingOnAndOff) {
     Scene scene = test::lobes_scene(false);
     int programs = 0;
@@ -432,21 +453,7 @@ TEST(ShaderBatch, RendersAreIdenticalWithBatchShadingOnAndOff) {
         ++programs;
     }
     ASSERT_EQ(programs, 3);
-    for (Traversal traversal : {Traversal::Packet, Traversal::Stream, Traversal::Wavefront}) {
-        RenderSettings rs;
-        rs.width = 40, rs.height = 36, rs.spp = 2, rs.seed = 3, rs.threads = 2, rs.max_bounces = 4;
-        rs.traversal = traversal;
-        rs.shader_batch = false;
-        const std::vector<float> scalar = test::render_combined(scene, rs);
-        rs.shader_batch = true;
-        const std::vector<float> batch = test::render_combined(scene, rs);
-        ASSERT_EQ(scalar.size(), batch.size());
-        EXPECT_EQ(std::memcmp(scalar.data(), batch.data(), scalar.size() * sizeof(float)), 0)
-            << "traversal " << int(traversal);
-        double sum = 0.0;
-        for (float x : batch) sum += x;
-        EXPECT_GT(sum, 0.0);  // a lit image, not an empty one
-    }
+    expect_batches_render_the_scalar_image(scene, 3);
 }
 
 // Base Color from the Object texture coordinate: on an instance the point
@@ -498,18 +505,7 @@ TEST(ShaderBatch, InstancesAndPlainHitsShareBatchesWithoutSharingTransforms) {
     }
     ASSERT_EQ(scene.add_instances(proto, placements.data(), placements.size(), {floor_material}, "tiles"), 4u);
     scene.finalize();
-    for (Traversal traversal : {Traversal::Packet, Traversal::Stream, Traversal::Wavefront}) {
-        RenderSettings rs;
-        rs.width = 40, rs.height = 36, rs.spp = 2, rs.seed = 5, rs.threads = 2, rs.max_bounces = 4;
-        rs.traversal = traversal;
-        rs.shader_batch = false;
-        const std::vector<float> scalar = test::render_combined(scene, rs);
-        rs.shader_batch = true;
-        const std::vector<float> batch = test::render_combined(scene, rs);
-        ASSERT_EQ(scalar.size(), batch.size());
-        EXPECT_EQ(std::memcmp(scalar.data(), batch.data(), scalar.size() * sizeof(float)), 0)
-            << "traversal " << int(traversal);
-    }
+    expect_batches_render_the_scalar_image(scene, 5);
 }
 
 }  // namespace
