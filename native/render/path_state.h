@@ -358,14 +358,13 @@ inline float pixel_footprint(const Scene& scene, const RenderSettings& rs, const
     return cam.projection == Projection::Orthographic ? pixel : pixel * length(p - cam.position);
 }
 
-// What a program reads at sp (shader/eval.h). The Light Path input is left
-// to the caller, who owns the LightPathInfo g.path points to.
-// Writes every field of g that a program reads at `hit` into g as it is:
-// batches fill their reused arrays in place (batch_shading.h), where
-// constructing a fresh ShadingGeometry zeroed ~200 bytes and wrote two
-// identity transforms per hit only to copy them over (a third of
-// HitShading::evaluate's samples in perf). The transforms are written only
-// on an instance, the one case that reads them (eval.h); `path` is reset.
+// What a program reads at sp (shader/eval.h), written into an existing g.
+// The Light Path input is left to the caller, who owns the LightPathInfo
+// g.path points to (reset here). Batches fill their reused arrays in place
+// (batch_shading.h): constructing a fresh ShadingGeometry per hit zeroed
+// ~200 bytes and wrote two identity transforms only to copy them over (a
+// third of HitShading::evaluate's samples in perf). The transforms are
+// written only on an instance, the one case that reads them (eval.h).
 COHERENT_ALWAYS_INLINE void fill_shading_geometry(const PathContext& ctx, const PathState& s, const Hit& hit,
                                                   const SurfacePoint& sp, const ShaderProgram& program,
                                                   ShadingGeometry& g) {

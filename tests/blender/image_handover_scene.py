@@ -13,12 +13,12 @@
 # each of COHERENT's renders, so its "Coherent: finished ..." line (images
 # reused) can be matched to it.
 #
-# Then an image packed from an uncompressed TGA is repacked (Image > Reload)
-# after another TGA of the same length (other texels) was saved over that
-# file: rendered by Cycles, then
-# twice by COHERENT (HANDOVER_RENDER repacked 0 / 1), whose first render must
-# see the new bytes although length and name are unchanged:
-# OUT_DIR/repacked_<engine>[_again].exr, after OUT_DIR/repacked_before_coherent.exr.
+# Then an image packed from an uncompressed TGA is rendered by COHERENT
+# (OUT_DIR/repacked_before_coherent.exr), and repacked (Image > Reload) after
+# another TGA of the same length (other texels) was saved over that file:
+# rendered by Cycles, then twice by COHERENT (HANDOVER_RENDER repacked 0 / 1),
+# whose first render must see the new bytes although length and name are
+# unchanged: OUT_DIR/repacked_<engine>[_again].exr.
 #
 # Then the image with alpha mode Straight, packed, file-backed and as a
 # generated float image (colour space Linear), with Linear and Closest

@@ -8,8 +8,9 @@
 # test_shader_nodes.py), and the second render must reuse the in-memory
 # images handed over by the first (its stats line says so) with the same
 # pixels. An image repacked from other bytes of the same length must render
-# its new texels (as Cycles does) and be handed over again. The same image with Straight alpha (packed, file-backed, float,
-# Linear and Closest, Alpha unused and used) must agree with Cycles too:
+# its new texels (as Cycles does) and be handed over again. The same image
+# with Straight alpha (packed, file-backed, float, Linear and Closest,
+# Alpha unused and used) must agree with Cycles too:
 # Cycles associates its texels before filtering (image_handover_scene.py).
 
 import re

@@ -480,10 +480,11 @@ std::shared_ptr<ShaderProgram> object_coordinate_program() {
 TEST(ShaderBatch, InstancesAndPlainHitsShareBatchesWithoutSharingTransforms) {
     Scene scene = test::lobes_scene(false);
     uint32_t programs = 0;
-    for (Material& m : scene.materials)
-        if (m.closures[0].base_color.x == 0.7f || (m.closures[0].base_color.x == 0.8f && m.closures[0].base_color.y == 0.2f))
-            m.program = object_coordinate_program(), ++programs;
-    ASSERT_EQ(programs, 2u);  // the floor and the red sphere
+    for (Material& m : scene.materials) {  // by their constants: the floor and the red sphere
+        const Vec3f& c = m.closures[0].base_color;
+        if (c.x == 0.7f || (c.x == 0.8f && c.y == 0.2f)) m.program = object_coordinate_program(), ++programs;
+    }
+    ASSERT_EQ(programs, 2u);
     const uint32_t floor_material = scene.material_of[0];
     ASSERT_TRUE(scene.materials[floor_material].program);
     const float pos[] = {-0.5f, -0.5f, 0.0f, 0.5f, -0.5f, 0.0f, 0.5f, 0.5f, 0.0f, -0.5f, 0.5f, 0.0f};
