@@ -74,10 +74,19 @@ def relative_median_error(images, name):
 
 def test_noisy_image_pass_is_the_undenoised_render(cornell, glass):
     for images in (cornell, glass):
-        # Equal to float precision: under a loaded machine one pixel of the
-        # glass scene has differed by one ulp (2 of ~10 runs on 2026-11-24,
-        # cause not found; tests/native checks renders bit for bit).
-        np.testing.assert_allclose(images["noisy16"], images["n16"], rtol=1e-6, atol=1e-7)
+        # The same samples of the same scene, but each render exports the scene
+        # afresh, and Blender 3.4 computes smooth vertex normals with racing
+        # threads: the glass sphere's normals differ by one ulp in ~1 % of
+        # values from one recomputation to the next (measured 2026-11-27, 19
+        # recomputations in one Blender). Refracted through the sphere, that
+        # has moved 16 of 7,803 values by up to 4e-5 relative (one run of a
+        # loaded ctest -j2). A Noisy Image of other samples or of the denoised
+        # image differs at noise level in nearly every pixel, which both
+        # asserts below catch; tests/native checks renders bit for bit.
+        noisy, plain = images["noisy16"], images["n16"]
+        close = np.isclose(noisy, plain, rtol=1e-6, atol=1e-7)
+        assert close.mean() >= 0.99, f"{(~close).sum()} of {close.size} values differ"
+        assert np.abs(noisy - plain).mean() <= 1e-5 * np.abs(plain).mean()
         assert not np.array_equal(images["d16"], images["n16"])
         for name in ("d16", "d64", "albedo", "normal"):
             assert np.isfinite(images[name]).all(), name
