@@ -63,6 +63,7 @@ TABLE_PROPERTIES = {
     "use_preview_denoising": ("denoise", dict(name="Viewport", description="Denoise the viewport's image at "
                                                                           "2, 4, 8, ... samples and when done")),
     "denoising_strength": ("denoise_strength", dict(name="Strength")),
+    "use_distribute_samples": ("distribute_samples", {}),
     "use_pass_denoising_data": ("denoising_data", {}),
 }
 # Set by renderer_kwargs' callers: samples, seed and denoising differ between

@@ -107,6 +107,9 @@ class RENDER_PT_coherent_denoising(CoherentButtonsPanel, bpy.types.Panel):
         sub = layout.column()
         sub.active = props.use_denoising or props.use_preview_denoising
         sub.prop(props, "denoising_strength")
+        sub = layout.column()
+        sub.active = props.use_denoising
+        sub.prop(props, "use_distribute_samples")
 
 
 class RENDER_PT_coherent_quality_cost(CoherentButtonsPanel, bpy.types.Panel):

@@ -8,6 +8,7 @@
 // (enumerable_thread_specific) and merged after each batch: no atomics in
 // the per-ray path.
 #include "renderer.h"
+#include "sample_distribution.h"
 
 #include "setting_table.h"
 
@@ -47,6 +48,9 @@ struct TileJob {
     uint32_t samples = 1;  // samples each pixel takes, from `sample` on (>1: TileLayout::pixel_runs kernels only)
     const std::atomic<bool>* cancelled;
     const uint8_t* converged;  // per film pixel, row stride film width; null = none skipped
+    // Distributing samples (sample_distribution.h): per film pixel, the
+    // sample index a pixel stops before; null = every pixel takes every sample.
+    const uint32_t* sample_targets = nullptr;
     int film_width;
     bool heatmaps;
     bool denoising_features;
@@ -55,9 +59,17 @@ struct TileJob {
     PacketAssembly assembly;
     struct WavefrontPool* wavefront;  // wavefront traversal: per-thread pipelines
 
+    size_t film_index(int x, int y) const { return size_t(y - border_y0) * size_t(film_width) + size_t(x - border_x0); }
     bool skip(int x, int y) const {
         // Adaptive sampling: a converged pixel keeps its mean and takes no more samples.
-        return converged && converged[size_t(y - border_y0) * size_t(film_width) + size_t(x - border_x0)];
+        return (converged && converged[film_index(x, y)]) ||
+               (sample_targets && sample >= sample_targets[film_index(x, y)]);
+    }
+    // How many of the call's samples pixel (x, y) takes (pixel-run kernels).
+    uint32_t samples_of(int x, int y) const {
+        if (!sample_targets) return samples;
+        const uint32_t target = sample_targets[film_index(x, y)];
+        return target > sample ? std::min(samples, target - sample) : 0u;
     }
     // Adds finished sample `sample` to the film. No NaN/Inf ever reaches the
     // film: a non-finite sample is discarded whole and counted.
@@ -123,7 +135,8 @@ void render_tile(const TileJob& job, RenderStats& st) {
             for (int y = y0; y < y1; ++y)
                 for (int x = x0; x < x1; ++x) {
                     if (job.skip(x, y)) continue;
-                    for (uint32_t i = 0; i < job.samples; ++i) {
+                    const uint32_t samples = job.samples_of(x, y);
+                    for (uint32_t i = 0; i < samples; ++i) {
                         const uint32_t sample = job.sample + i;
                         const PathSampler ps = share ? PathSampler(streams[i])
                                                      : PathSampler(*job.sampler, uint32_t(x), uint32_t(y), sample);
@@ -444,7 +457,8 @@ std::unique_ptr<WavefrontPool> make_wavefront_pool(const PathContext& ctx, const
 // What every tile of a batch of passes shares (all but the pixel rectangle
 // and the pass).
 TileJob pass_job(const PathContext& ctx, const ImageSampler& sampler, Film& film, const RenderSettings& rs,
-                 const std::atomic<bool>& cancelled, const std::vector<uint8_t>& converged, WavefrontPool* wavefront) {
+                 const std::atomic<bool>& cancelled, const std::vector<uint8_t>& converged,
+                 const std::vector<uint32_t>& sample_targets, WavefrontPool* wavefront) {
     TileJob job;
     job.ctx = &ctx;
     job.sampler = &sampler;
@@ -454,6 +468,7 @@ TileJob pass_job(const PathContext& ctx, const ImageSampler& sampler, Film& film
     job.sample = 0;  // render_batch sets each pass's
     job.cancelled = &cancelled;
     job.converged = converged.empty() ? nullptr : converged.data();
+    job.sample_targets = sample_targets.empty() ? nullptr : sample_targets.data();
     job.film_width = rs.border_width();
     job.heatmaps = rs.heatmaps;
     job.denoising_features = rs.denoising_features();
@@ -591,21 +606,30 @@ bool Renderer::render(const ProgressCallback& progress) {
     double trial_seconds[2] = {0.0, 0.0};
     const int tiles = layout.tiles;
     const int spp = std::max(settings_.spp, 0);
+    // Distributing samples, passes go on until the pixels with the most
+    // samples have them; spp stays the mean (sample_distribution.h).
+    const bool distribute = settings_.distributes_samples();
+    int passes = spp;  // distributing: the largest count, once decided
 
     tbb::task_arena arena(settings_.threads > 0 ? settings_.threads : tbb::task_arena::automatic);
     ProgressReporter reporter(progress, spp, start);
     reset_stats();
     int done = 0;
     double seconds_per_pass = 0.0;
-    while (done < spp && !cancelled() && tiles > 0) {
-        const int count = batch_size(done, spp, seconds_per_pass, reporter.seconds());
+    while (done < passes && !cancelled() && tiles > 0) {
+        const int count = batch_size(done, passes, seconds_per_pass, reporter.seconds());
         const ImageSampler sampler(samplers, uint32_t(done), uint32_t(count));
         const TileLayout& L = trial && done == 0 ? single_layout : layout;
         const auto batch_start = Clock::now();
-        const TileJob job = pass_job(ctx, sampler, film_, settings_, cancelled_, converged_, wavefront.get());
+        const TileJob job =
+            pass_job(ctx, sampler, film_, settings_, cancelled_, converged_, sample_targets_, wavefront.get());
         render_batch(arena, L, job, done, count, settings_, stats_, [&](int tile_passes) {
-            if (reporter.due() && !reporter.report(done, (done + double(tile_passes) / L.tiles) / spp, stats_))
-                cancel();
+            // (Distributing, the mean count of the last batch: the film's
+            // counts are being written by the other threads.)
+            const double fraction = distribute && !sample_targets_.empty()
+                                        ? double(stats_.spp) / spp
+                                        : (done + double(tile_passes) / L.tiles) / spp;
+            if (reporter.due() && !reporter.report(stats_.spp, std::min(fraction, 1.0), stats_)) cancel();
         });
         if (cancelled()) break;
         const double seconds = std::chrono::duration<double>(Clock::now() - batch_start).count();
@@ -618,11 +642,15 @@ bool Renderer::render(const ProgressCallback& progress) {
         }
         seconds_per_pass = seconds / count;
         done += count;
-        stats_.spp = done;
         // O(pixels), once per batch.
+        stats_.spp = distribute && !sample_targets_.empty() ? int(std::lround(mean_samples())) : done;
         if (done >= 2 && settings_.error_estimated()) stats_.error_estimate = film_.relative_rmse_estimate();
-        if (!reporter.report(done, double(done) / spp, stats_)) cancel();
-        if (stop_after_pass(done, spp)) break;
+        if (distribute && sample_targets_.empty() && done == SampleDistribution::uniform_passes(spp)) {
+            sample_targets_ = SampleDistribution::targets(film_, spp);
+            passes = int(*std::max_element(sample_targets_.begin(), sample_targets_.end()));
+        }
+        if (!reporter.report(stats_.spp, std::min(1.0, double(stats_.spp) / spp), stats_)) cancel();
+        if (stop_after_pass(done, passes)) break;
     }
     if (settings_.denoise && !cancelled())
         denoise_film([&](double f) { return reporter.report(stats_.spp, 1.0, stats_, f); });
@@ -657,6 +685,15 @@ void Renderer::reset_stats() {
     stats_.converged_pixels = 0;
     converged_.clear();
     if (settings_.adaptive) converged_.assign(size_t(bw) * size_t(bh), 0);
+    sample_targets_.clear();
+}
+
+double Renderer::mean_samples() const {
+    const size_t size = size_t(film_.width()) * size_t(film_.height());
+    uint64_t total = 0;
+    for (int y = 0; y < film_.height(); ++y)
+        for (int x = 0; x < film_.width(); ++x) total += film_.samples_at(x, y);
+    return size ? double(total) / double(size) : 0.0;
 }
 
 bool Renderer::stop_after_pass(int passes_done, int spp) {
@@ -692,6 +729,11 @@ int Renderer::batch_size(int done, int spp, double seconds_per_pass, double elap
     // Grow by at most half the passes done, so reports, error estimates and
     // stopping decisions keep coming at a steady rate in log(spp).
     count = std::min(count, std::max(2, done / 2));
+    if (settings_.distributes_samples()) {
+        // A batch ends at the decision.
+        const int uniform = SampleDistribution::uniform_passes(settings_.spp);
+        if (done < uniform) count = std::min(count, uniform - done);
+    }
     if (settings_.adaptive) {
         const int first_decision = first_adaptive_decision();
         count = std::min(count, done < first_decision ? first_decision - done : std::max(2, done / 4));

@@ -139,6 +139,17 @@ struct RenderSettings {
     bool denoise = false;
     float denoise_strength = 1.0f;
     bool denoising_data = false;
+    // A denoised final render of a fixed sample count takes half of its
+    // samples in every pixel and distributes the other half by the error the
+    // denoiser is predicted to leave, spp per pixel on average
+    // (render/sample_distribution.h). Only where the count is fixed (no
+    // error target, time limit or progressive display) and with SPT, whose
+    // pixels' random numbers are independent.
+    bool distribute_samples = true;
+    bool distributes_samples() const {
+        return denoise && distribute_samples && !progressive_display && target_error <= 0.0 && time_limit <= 0.0 &&
+               resolved_sampler() == SamplerType::Spt && spp >= 4;
+    }
     bool denoising_features() const { return denoise || denoising_data; }
 
     // Cycles' render passes to accumulate (film/passes.h PassMask; 0 = none,

@@ -105,7 +105,9 @@ struct RenderStats {
     double sort_seconds = 0.0;
     uint64_t nonfinite_samples = 0;  // samples whose value was NaN/Inf, discarded
     uint64_t samples = 0;            // pixel samples finished
-    int spp = 0;                     // sample passes actually completed (samples per pixel taken)
+    // Sample passes actually completed (samples per pixel taken); distributing
+    // samples (settings.h), the mean samples per pixel, rounded.
+    int spp = 0;
     // Adaptive sampling: pixels that stopped receiving samples (0 when off),
     // out of `pixels` in the film (the render border).
     uint64_t converged_pixels = 0;

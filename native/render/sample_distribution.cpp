@@ -1,0 +1,94 @@
+// Per-pixel sample counts for a denoised render (sample_distribution.h).
+#include "sample_distribution.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace coherent {
+
+namespace {
+
+// Per-sample variance of what the denoiser keeps of pixel i's noise
+// (sample_distribution.h), 0 where the pixel lacks a half.
+double kept_variance(const Film::Sums& s, size_t i) {
+    const double n = s.count[i], n_odd = s.count_odd[i], n_even = n - n_odd;
+    if (n_odd < 1.0 || n_even < 1.0) return 0.0;
+    // Variance of a mean of n samples from its halves' difference (film.h).
+    const double halves = n_even * n_odd / (n * n);
+    double v = 0.0;
+    for (int c = 0; c < 3; ++c) {
+        const double sum = s.rgba[4 * i + size_t(c)], odd = s.rgb_odd[3 * i + size_t(c)];
+        const double d = (sum - odd) / n_even - odd / n_odd;
+        double colour_variance = d * d * halves, modulation = 0.0;
+        if (s.albedo) {
+            const double a = s.albedo[3 * i + size_t(c)], a_odd = s.albedo_odd[3 * i + size_t(c)];
+            const double da = (a - a_odd) / n_even - a_odd / n_odd;
+            // The denoiser's demodulation (denoiser.cpp: albedo + 0.01).
+            const double illumination = (sum / n) / (std::max(a / n, 0.0) + 0.01);
+            modulation = da * da * halves * illumination * illumination;
+        }
+        v += modulation + colour_variance * SampleDistribution::kFilteredVarianceShare;
+    }
+    v *= n;
+    return std::isfinite(v) ? v : 0.0;
+}
+
+}  // namespace
+
+std::vector<uint32_t> SampleDistribution::targets(const Film& film, int spp) {
+    const int w = film.width(), h = film.height();
+    const size_t size = size_t(w) * size_t(h);
+    const uint32_t limit = uint32_t(pass_limit(spp));
+    std::vector<uint32_t> out(size, uint32_t(spp));
+    if (size == 0) return out;
+    const Film::Sums s = film.sums();
+    std::vector<double> variance(size);
+    for (size_t i = 0; i < size; ++i) variance[i] = kept_variance(s, i);
+    // Each pixel judged by its neighbours only (the box, centre left out).
+    std::vector<double> weight(size, 0.0);
+    double total = 0.0;
+    for (int y = 0; y < h; ++y)
+        for (int x = 0; x < w; ++x) {
+            double sum = 0.0;
+            int count = 0;
+            for (int yy = std::max(0, y - kRadius); yy <= std::min(h - 1, y + kRadius); ++yy)
+                for (int xx = std::max(0, x - kRadius); xx <= std::min(w - 1, x + kRadius); ++xx)
+                    if (xx != x || yy != y) sum += variance[size_t(yy) * size_t(w) + size_t(xx)], ++count;
+            const size_t i = size_t(y) * size_t(w) + size_t(x);
+            weight[i] = count ? std::sqrt(sum / count) : 0.0;
+            total += weight[i];
+        }
+    if (!(total > 0.0) || !std::isfinite(total)) return out;
+    // Extra samples proportional to the weight, capped per pixel; what the
+    // caps cut goes to the uncapped pixels (a few rounds suffice).
+    std::vector<uint32_t> have(size);
+    double budget = 0.0;
+    for (size_t i = 0; i < size; ++i) {
+        have[i] = s.count[i];
+        budget += double(spp) - double(have[i]);
+    }
+    if (!(budget > 0.0)) return std::vector<uint32_t>(have.begin(), have.end());
+    const auto room = [&](size_t i) { return double(limit) - double(have[i]); };
+    double scale = budget / total;
+    for (int round = 0; round < 16; ++round) {
+        double spent = 0.0, uncapped = 0.0;
+        for (size_t i = 0; i < size; ++i) {
+            const double extra = weight[i] * scale;
+            if (extra >= room(i)) {
+                spent += room(i);
+            } else {
+                spent += extra;
+                uncapped += weight[i];
+            }
+        }
+        if (spent >= budget * 0.999 || !(uncapped > 0.0)) break;
+        scale += (budget - spent) / uncapped;
+    }
+    for (size_t i = 0; i < size; ++i) {
+        const double extra = std::clamp(weight[i] * scale, 0.0, std::max(room(i), 0.0));
+        out[i] = std::min(limit, have[i] + 2u * uint32_t(std::lround(extra / 2.0)));
+    }
+    return out;
+}
+
+}  // namespace coherent

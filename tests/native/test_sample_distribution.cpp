@@ -1,0 +1,166 @@
+// Distributing a denoised render's samples (RenderSettings::distribute_samples,
+// render/sample_distribution.h). The properties tested: the budget holds
+// (spp samples per pixel on average, every pixel at least the uniform half,
+// none past the cap, counts even); more samples go where the denoiser is
+// predicted to leave error (the emitter's edge, not the black background);
+// the noisy image stays unbiased (the counts are decided from each pixel's
+// neighbours, never its own samples), over paired seeds against uniform
+// renders; no NaN; and the setting is off wherever its conditions fail.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <vector>
+
+#include "../../native/render/sample_distribution.h"
+#include "test_render_helpers.h"
+#include "test_seed.h"
+
+namespace coherent {
+namespace {
+
+constexpr int kRes = 16;
+
+RenderSettings settings(bool distribute, int spp, uint64_t seed) {
+    RenderSettings rs;
+    rs.width = rs.height = kRes;
+    rs.spp = spp;
+    rs.seed = seed;
+    rs.sampler = SamplerType::Auto;  // SPT when denoising
+    rs.max_bounces = 4;
+    rs.denoise = true;
+    rs.distribute_samples = distribute;
+    rs.threads = 2;
+    return rs;
+}
+
+double image_mean(const std::vector<float>& img) {
+    double m = 0.0;
+    for (size_t i = 0; i < img.size(); i += 4) m += img[i] + img[i + 1] + img[i + 2];
+    return m / (3.0 * double(img.size() / 4));
+}
+
+TEST(SampleDistribution, AppliesOnlyToFixedCountDenoisedSptRenders) {
+    RenderSettings rs = settings(true, 16, 1);
+    EXPECT_TRUE(RenderSettings{}.distribute_samples);  // on by default, acts only when denoising
+    EXPECT_FALSE(RenderSettings{}.distributes_samples());
+    EXPECT_TRUE(rs.distributes_samples());
+    RenderSettings r = rs;
+    r.denoise = false;
+    EXPECT_FALSE(r.distributes_samples());
+    r = rs, r.distribute_samples = false;
+    EXPECT_FALSE(r.distributes_samples());
+    r = rs, r.progressive_display = true;
+    EXPECT_FALSE(r.distributes_samples());
+    r = rs, r.target_error = 0.05;
+    EXPECT_FALSE(r.distributes_samples());
+    r = rs, r.time_limit = 10.0;
+    EXPECT_FALSE(r.distributes_samples());
+    r = rs, r.sampler = SamplerType::Cpt;  // shares numbers between neighbours: their samples would decide
+    EXPECT_FALSE(r.distributes_samples());
+    r = rs, r.spp = 2;
+    EXPECT_FALSE(r.distributes_samples());
+}
+
+TEST(SampleDistribution, KeepsTheBudgetAndSamplesWhereTheDenoiserLeavesError) {
+    const Scene scene = test::lobes_scene(false, 9.0f);
+    RenderSettings rs = settings(true, 16, 7);
+    rs.width = rs.height = 48;
+    Renderer r(scene, rs);
+    ASSERT_TRUE(r.render());
+    const Film& film = r.film();
+    const int w = film.width(), h = film.height();
+    uint64_t total = 0;
+    uint32_t most = 0, fewest = ~0u;
+    for (int y = 0; y < h; ++y)
+        for (int x = 0; x < w; ++x) {
+            const uint32_t n = film.samples_at(x, y);
+            total += n;
+            most = std::max(most, n), fewest = std::min(fewest, n);
+            EXPECT_EQ(n % 2, 0u) << "odd count at " << x << "," << y;
+        }
+    const double mean = double(total) / double(w * h);
+    std::printf("distributed: mean %.3f spp, %u..%u per pixel, stats spp %d\n", mean, fewest, most, r.stats().spp);
+    EXPECT_NEAR(mean, 16.0, 0.25);  // within the rounding of counts to even numbers
+    EXPECT_EQ(r.stats().spp, 16);
+    EXPECT_EQ(r.stats().samples, total);
+    EXPECT_EQ(fewest, uint32_t(SampleDistribution::uniform_passes(16)));
+    EXPECT_LE(most, uint32_t(SampleDistribution::pass_limit(16)));
+    EXPECT_GT(most, 64u) << "no pixel got much more than the budget: nothing was distributed";
+    // The brightest pixels (the light, highlights, the glass) must be sampled
+    // more than the darkest, where nothing is left to denoise.
+    const Film::Sums s = film.sums();
+    double bright = 0.0, dark = 0.0;
+    int bright_n = 0, dark_n = 0;
+    std::vector<double> lum(size_t(w * h));
+    for (size_t i = 0; i < lum.size(); ++i) lum[i] = (s.rgba[4 * i] + s.rgba[4 * i + 1] + s.rgba[4 * i + 2]) / s.count[i];
+    std::vector<double> sorted = lum;
+    std::sort(sorted.begin(), sorted.end());
+    const double top = sorted[sorted.size() * 99 / 100], low = sorted[sorted.size() / 10];
+    for (size_t i = 0; i < lum.size(); ++i) {
+        if (lum[i] >= top) bright += s.count[i], ++bright_n;
+        if (lum[i] <= low) dark += s.count[i], ++dark_n;
+    }
+    EXPECT_GT(bright / bright_n, 2.0 * dark / dark_n);
+    const std::vector<float> img = film.resolve(PassType::Combined);
+    for (float v : img) ASSERT_TRUE(std::isfinite(v));
+}
+
+// As the film's mean of each pixel is taken over a count decided by its
+// neighbours' samples only, the Noisy Image (the undenoised mean) stays
+// unbiased: over paired seeds its image mean and single pixels agree with
+// uniform renders of the same spp within 4 standard errors.
+TEST(SampleDistribution, NoisyImageUnbiasedAgainstUniformOverSeeds) {
+    const Scene scene = test::sphere_on_floor_scene();
+    constexpr int kSeeds = 200;
+    const int px[3][2] = {{2, 13}, {9, 10}, {8, 6}};  // lit floor, near the shadow, the sphere
+    std::vector<double> d_img;
+    std::vector<std::vector<double>> d_px(3);
+    double spread = 0.0;
+    for (int s = 0; s < kSeeds; ++s) {
+        Renderer a(scene, settings(true, 8, test::test_seed(3000 + s)));
+        Renderer b(scene, settings(false, 8, test::test_seed(3000 + s)));
+        ASSERT_TRUE(a.render());
+        ASSERT_TRUE(b.render());
+        const std::vector<float> da = a.film().resolve(PassType::NoisyImage);
+        const std::vector<float> db = b.film().resolve(PassType::NoisyImage);
+        uint32_t most = 0;
+        for (int y = 0; y < kRes; ++y)
+            for (int x = 0; x < kRes; ++x) most = std::max(most, a.film().samples_at(x, y));
+        spread += double(most) / kSeeds;
+        d_img.push_back(image_mean(da) - image_mean(db));
+        for (int k = 0; k < 3; ++k) {
+            const size_t i = 4 * (size_t(px[k][1]) * kRes + size_t(px[k][0]));
+            d_px[k].push_back((da[i] + da[i + 1] + da[i + 2] - db[i] - db[i + 1] - db[i + 2]) / 3.0);
+        }
+    }
+    EXPECT_GT(spread, 16.0) << "the most sampled pixel should take several times the budget";
+    const test::MeanVar img = test::mean_var(d_img);
+    std::printf("distribution bias: image diff %.2e +- %.2e (%.2f sigma), most sampled pixel %.1f spp on average\n",
+                img.mean, img.stderr_of_mean(), img.mean / img.stderr_of_mean(), spread);
+    EXPECT_GT(img.stderr_of_mean(), 0.0);
+    EXPECT_LT(std::abs(img.mean), 4.0 * img.stderr_of_mean());
+    for (int k = 0; k < 3; ++k) {
+        const test::MeanVar p = test::mean_var(d_px[k]);
+        std::printf("  pixel (%d,%d): diff %.2e +- %.2e\n", px[k][0], px[k][1], p.mean, p.stderr_of_mean());
+        EXPECT_LE(std::abs(p.mean), 4.0 * p.stderr_of_mean() + 1e-7);
+    }
+}
+
+TEST(SampleDistribution, BlackImageGetsTheBudgetEverywhere) {
+    Scene scene;  // no light and a black world: nothing to distribute by
+    const uint32_t white = scene.add_material(test::diffuse_material(Vec3f(0.7f)));
+    test::add_quad(scene, {0, 0, 0}, {1, 0, 0}, {0, 1, 0}, 6.0f, 6.0f, white, "floor");
+    test::add_sphere(scene, {0, 0, 1}, 1.0f, white, 16, 32);
+    scene.camera = test::sphere_on_floor_scene().camera;
+    scene.finalize();
+    Renderer r(scene, settings(true, 8, 3));
+    ASSERT_TRUE(r.render());
+    for (int y = 0; y < kRes; ++y)
+        for (int x = 0; x < kRes; ++x) EXPECT_EQ(r.film().samples_at(x, y), 8u);
+    for (float v : r.film().resolve(PassType::Combined)) ASSERT_TRUE(std::isfinite(v));
+}
+
+}  // namespace
+}  // namespace coherent
