@@ -8,7 +8,7 @@ render at 512 x 512.
 
     /usr/bin/python3 bench/denoise.py [--res 64] [--ref-spp 2048] [--out docs/results]
         [--cache /tmp/denoise_bench_cache] [--only LABEL] [--skip-blender] [--skip-timing]
-        [--sampler spt|cpt|icpt]
+        [--sampler spt|cpt|icpt] [--uniform]
 
 The reference is two renders of --ref-spp samples with other seeds; a quarter
 of their squared difference estimates the reference's variance and is
@@ -24,6 +24,10 @@ Writes denoise.csv, denoise_crops.png and prints the markdown tables.
 front end's own, SPT in the CLI and Auto = CPT for Blender's final renders);
 the references do not depend on it (every sampler is unbiased), so they are
 shared, while the noisy 256-spp render is cached per sampler.
+
+Denoised renders distribute their samples (Distribute Samples, on by
+default); --uniform turns that off, to compare. The noisy 16 and 64 spp
+columns are always uniform renders.
 """
 import argparse
 import csv
@@ -67,7 +71,7 @@ def cached_names(res, ref_spp, sampler):
             "n256": (n256, 256, 7)}
 
 
-def glb_images(scene, tmp, res, ref_spp, cache, sampler=""):
+def glb_images(scene, tmp, res, ref_spp, cache, sampler="", uniform=False):
     """The references and the noisy 256-spp render do not depend on the
     denoiser: they are kept in `cache` and reused by later runs."""
     img = {}
@@ -82,12 +86,13 @@ def glb_images(scene, tmp, res, ref_spp, cache, sampler=""):
         cli_render(scene, tmp / f"n{spp}.exr", res, spp, 7, extra=extra)
         img[f"noisy{spp}"] = read_rgb(tmp / f"n{spp}.exr")
     for spp in (16, 64):
-        cli_render(scene, tmp / f"d{spp}.exr", res, spp, 7, denoise=True, extra=extra)
+        cli_render(scene, tmp / f"d{spp}.exr", res, spp, 7, denoise=True,
+                   extra=extra + (("--distribute-samples=false",) if uniform else ()))
         img[f"denoised{spp}"] = read_rgb(tmp / f"d{spp}.exr")
     return img
 
 
-def blend_images(scene, tmp, res, ref_spp, cache, sampler=""):
+def blend_images(scene, tmp, res, ref_spp, cache, sampler="", uniform=False):
     """Renders through Blender (tests/blender/denoise_renders.py) at the
     resolution percentage that gives about `res` pixels across; the
     references and noisy 256 spp are cached as in glb_images."""
@@ -97,7 +102,8 @@ def blend_images(scene, tmp, res, ref_spp, cache, sampler=""):
     # The references keep the scene's sampler (any is unbiased); the others take `sampler`.
     specs = [f"{k}:{spp}:{seed}:0" + (f":1:{sampler}" if sampler and k == "n256" else "")
              for k, (_, spp, seed) in names.items() if not cached[k].exists()]
-    specs += [f"d{spp}:{spp}:7:1" + (f":1:{sampler}" if sampler else "") for spp in (16, 64)]
+    specs += [f"d{spp}:{spp}:7:1:1:{sampler}:{0 if uniform else 1}" for spp in (16, 64)]
+    specs += [f"n{spp}:{spp}:7:0:1:{sampler}" for spp in (16, 64)]
     users = tmp / "user_scripts"
     (users / "addons").mkdir(parents=True, exist_ok=True)
     link = users / "addons" / "coherent"
@@ -113,7 +119,7 @@ def blend_images(scene, tmp, res, ref_spp, cache, sampler=""):
     img = {k: read_rgb(cached[k]) for k in ("refa", "refb")}
     img["noisy256"] = read_rgb(cached["n256"])
     for spp in (16, 64):
-        img[f"noisy{spp}"] = read_rgb(tmp / f"d{spp}.exr", "Noisy Image")
+        img[f"noisy{spp}"] = read_rgb(tmp / f"n{spp}.exr")
         img[f"denoised{spp}"] = read_rgb(tmp / f"d{spp}.exr")
     return img
 
@@ -193,6 +199,7 @@ def main():
     ap.add_argument("--only", default="", help="only scenes whose label contains this")
     ap.add_argument("--cache", default="/tmp/denoise_bench_cache", help="references and noisy 256 spp, reused")
     ap.add_argument("--sampler", default="", help="sampler of the noisy and denoised renders (default: the front end's)")
+    ap.add_argument("--uniform", action="store_true", help="denoised renders without Distribute Samples")
     args = ap.parse_args()
     out = Path(args.out)
     work = Path(tempfile.mkdtemp(prefix="denoise_bench_"))
@@ -212,7 +219,7 @@ def main():
         tmp, cache = work / key, Path(args.cache) / key
         tmp.mkdir(parents=True, exist_ok=True)
         cache.mkdir(parents=True, exist_ok=True)
-        img = render(path, tmp, args.res, args.ref_spp, cache, args.sampler)
+        img = render(path, tmp, args.res, args.ref_spp, cache, args.sampler, args.uniform)
         row, ref = errors(img)
         rows.append({"scene": label, **row})
         images[label.split(" (")[0]] = (img, ref)

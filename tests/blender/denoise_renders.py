@@ -2,7 +2,7 @@
 # all of them), for test_denoising.py and bench/denoise.py:
 #   blender -b SCENE.blend --addons coherent --python denoise_renders.py -- OUT_DIR PERCENT SPEC...
 # where each SPEC is "name:samples:seed:denoise[:strength[:sampler[:distribute]]]" (denoise 0 or 1,
-# sampler as the CLI names it: spt, cpt, icpt; default the scene's; distribute 0 or 1,
+# sampler as the CLI names it: spt, cpt, icpt; empty or absent: the scene's; distribute 0 or 1,
 # Distribute Samples, default on); writes
 # OUT_DIR/name.exr (multilayer: Combined, and with denoise Noisy Image and
 # the Denoising Albedo/Normal passes). Exits non-zero on any failure.
@@ -25,7 +25,7 @@ def main(argv):
         name, samples, seed, denoise, *options = spec.split(":")
         if options:
             scene.coherent.denoising_strength = float(options[0])
-        if len(options) > 1:
+        if len(options) > 1 and options[1]:
             scene.coherent.sampler = options[1].upper()
         scene.coherent.use_distribute_samples = len(options) < 3 or options[2] == "1"
         scene.coherent.samples = int(samples)

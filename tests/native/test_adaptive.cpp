@@ -37,12 +37,6 @@ RenderSettings settings(bool adaptive, uint64_t seed) {
     return rs;
 }
 
-double image_mean(const std::vector<float>& img) {
-    double m = 0.0;
-    for (size_t i = 0; i < img.size(); i += 4) m += img[i] + img[i + 1] + img[i + 2];
-    return m / (3.0 * double(img.size() / 4));
-}
-
 TEST(Adaptive, OffByDefaultConvergesNothing) {
     const Scene scene = test::sphere_on_floor_scene();
     RenderSettings rs = settings(false, 1);
@@ -149,9 +143,9 @@ TEST(Adaptive, UnbiasedAgainstFullRenderOverSeeds) {
         const auto ad = test::render_combined(scene, settings(true, test::test_seed(1000 + s)), &st);
         const auto full = test::render_combined(scene, settings(false, test::test_seed(1000 + s)));
         converged_sum += st.converged_fraction();
-        const double mf = image_mean(full);
+        const double mf = test::image_mean(full);
         mean_full += mf / kSeeds;
-        d_img.push_back(image_mean(ad) - mf);
+        d_img.push_back(test::image_mean(ad) - mf);
         for (int k = 0; k < 3; ++k) {
             const size_t i = 4 * (size_t(px[k][1]) * kRes + size_t(px[k][0]));
             d_px[k].push_back((ad[i] + ad[i + 1] + ad[i + 2] - full[i] - full[i + 1] - full[i + 2]) / 3.0);
@@ -253,7 +247,7 @@ TEST(Adaptive, UnbiasedForEverySamplerOverSeeds) {
             const uint64_t seed = test::test_seed(2000 + s);
             const auto ad = test::render_combined(scene, mode_settings(m, true, seed));
             const auto full = test::render_combined(scene, mode_settings(m, false, seed));
-            d.push_back(image_mean(ad) - image_mean(full));
+            d.push_back(test::image_mean(ad) - test::image_mean(full));
         }
         const test::MeanVar mv = test::mean_var(d);
         std::printf("adaptive bias %-15s: diff %.2e +- %.2e (%.2f sigma)\n", mode_name(m).c_str(), mv.mean,
@@ -360,7 +354,7 @@ TEST(Adaptive, ImageErrorEstimateCalibratedUnderAdaptiveStops) {
             for (int c = 0; c < 3; ++c) e2 += (double(a[i + c]) - b[i + c]) * (double(a[i + c]) - b[i + c]);
         return e2 / (3.0 * double(a.size() / 4));
     };
-    const double ref_mean = image_mean(ref);
+    const double ref_mean = test::image_mean(ref);
     const double ref_err2 = mean_sq_diff(ra, ref) / (ref_mean * ref_mean);  // (A - B)^2 / 4
 
     constexpr int kSeeds = 60;

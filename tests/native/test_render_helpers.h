@@ -141,6 +141,13 @@ inline MeanVar mean_var(const std::vector<double>& v) {
     return r;
 }
 
+// Mean of the RGB channels of an RGBA image (Film::resolve(Combined)).
+inline double image_mean(const std::vector<float>& img) {
+    double m = 0.0;
+    for (size_t i = 0; i < img.size(); i += 4) m += img[i] + img[i + 1] + img[i + 2];
+    return m / (3.0 * double(img.size() / 4));
+}
+
 inline std::vector<float> render_combined(const Scene& scene, const RenderSettings& rs, RenderStats* stats = nullptr) {
     Renderer r(scene, rs);
     r.render();

@@ -35,12 +35,6 @@ RenderSettings settings(bool distribute, int spp, uint64_t seed) {
     return rs;
 }
 
-double image_mean(const std::vector<float>& img) {
-    double m = 0.0;
-    for (size_t i = 0; i < img.size(); i += 4) m += img[i] + img[i + 1] + img[i + 2];
-    return m / (3.0 * double(img.size() / 4));
-}
-
 TEST(SampleDistribution, AppliesOnlyToFixedCountDenoisedSptRenders) {
     RenderSettings rs = settings(true, 16, 1);
     EXPECT_TRUE(RenderSettings{}.distribute_samples);  // on by default, acts only when denoising
@@ -129,7 +123,7 @@ TEST(SampleDistribution, NoisyImageUnbiasedAgainstUniformOverSeeds) {
         for (int y = 0; y < kRes; ++y)
             for (int x = 0; x < kRes; ++x) most = std::max(most, a.film().samples_at(x, y));
         spread += double(most) / kSeeds;
-        d_img.push_back(image_mean(da) - image_mean(db));
+        d_img.push_back(test::image_mean(da) - test::image_mean(db));
         for (int k = 0; k < 3; ++k) {
             const size_t i = 4 * (size_t(px[k][1]) * kRes + size_t(px[k][0]));
             d_px[k].push_back((da[i] + da[i + 1] + da[i + 2] - db[i] - db[i + 1] - db[i + 2]) / 3.0);

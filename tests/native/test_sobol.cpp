@@ -217,12 +217,6 @@ double rmse(const std::vector<float>& a, const std::vector<float>& b) {
     return std::sqrt(e2 / double(n));
 }
 
-double image_mean(const std::vector<float>& img) {
-    double m = 0.0;
-    for (size_t i = 0; i < img.size(); i += 4) m += img[i] + img[i + 1] + img[i + 2];
-    return m / (3.0 * double(img.size() / 4));
-}
-
 TEST(SobolRender, RmseFallsFasterThanWhiteNoiseOnASmoothIntegrand) {
     // Log-log slope of RMSE against spp, least squares over 4..256 spp, RMSE
     // over 6 seeds against a 4096-spp reference. White noise gives -0.5.
@@ -311,7 +305,7 @@ TEST(SobolRender, EvenOddErrorEstimateTracksTrueError) {
                 Renderer r(scene, settings(kRes, spp, st, 31 + 17 * uint64_t(seed), 4));
                 ASSERT_TRUE(r.render());
                 const auto img = r.film().resolve(PassType::Combined);
-                const double rel = rmse(img, reference) / image_mean(reference);
+                const double rel = rmse(img, reference) / test::image_mean(reference);
                 est2 += r.film().relative_rmse_estimate() * r.film().relative_rmse_estimate();
                 true2 += rel * rel - ref_err * ref_err;
             }
