@@ -26,8 +26,9 @@ the references do not depend on it (every sampler is unbiased), so they are
 shared, while the noisy 256-spp render is cached per sampler.
 
 Denoised renders distribute their samples (Distribute Samples, on by
-default); --uniform turns that off, to compare. The noisy 16 and 64 spp
-columns are always uniform renders.
+default); --uniform turns that off, to compare. The noisy 16, 64 and 256
+spp columns are always plain (undenoised, uniform) renders with the sampler
+the front end picks for them (Blender's Auto: CPT) unless --sampler says.
 """
 import argparse
 import csv
