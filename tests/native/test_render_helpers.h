@@ -1,7 +1,11 @@
 // Small scene builders and statistics shared by the render tests.
 #pragma once
 
+#include <gtest/gtest.h>
+
 #include <cmath>
+#include <cstdio>
+#include <utility>
 #include <vector>
 
 #include "film/film.h"
@@ -141,11 +145,49 @@ inline MeanVar mean_var(const std::vector<double>& v) {
     return r;
 }
 
+// Paired differences between two renders of the same image over many seeds
+// (e.g. with and without a sampling rule that must not bias it): of the
+// image mean and of a few pixels. expect_zero_mean() asserts each mean
+// difference is 0 within 4 standard errors (a pixel whose samples are the
+// same in both gives exactly 0).
+struct PairedDifferences {
+    int width;
+    std::vector<std::pair<int, int>> pixels;  // (x, y)
+    std::vector<double> image;
+    std::vector<std::vector<double>> at = std::vector<std::vector<double>>(pixels.size());
+
+    // a, b: RGBA images of `width` columns.
+    void add(const std::vector<float>& a, const std::vector<float>& b);
+    void expect_zero_mean(const char* what) const;
+};
+
 // Mean of the RGB channels of an RGBA image (Film::resolve(Combined)).
 inline double image_mean(const std::vector<float>& img) {
     double m = 0.0;
     for (size_t i = 0; i < img.size(); i += 4) m += img[i] + img[i + 1] + img[i + 2];
     return m / (3.0 * double(img.size() / 4));
+}
+
+inline void PairedDifferences::add(const std::vector<float>& a, const std::vector<float>& b) {
+    image.push_back(image_mean(a) - image_mean(b));
+    for (size_t k = 0; k < pixels.size(); ++k) {
+        const size_t i = 4 * (size_t(pixels[k].second) * size_t(width) + size_t(pixels[k].first));
+        at[k].push_back((a[i] + a[i + 1] + a[i + 2] - b[i] - b[i + 1] - b[i + 2]) / 3.0);
+    }
+}
+
+inline void PairedDifferences::expect_zero_mean(const char* what) const {
+    const MeanVar img = mean_var(image);
+    std::printf("%s: image diff %.2e +- %.2e (%.2f sigma)\n", what, img.mean, img.stderr_of_mean(),
+                img.mean / img.stderr_of_mean());
+    EXPECT_GT(img.stderr_of_mean(), 0.0);
+    EXPECT_LT(std::abs(img.mean), 4.0 * img.stderr_of_mean());
+    for (size_t k = 0; k < pixels.size(); ++k) {
+        const MeanVar p = mean_var(at[k]);
+        std::printf("  pixel (%d,%d): diff %.2e +- %.2e\n", pixels[k].first, pixels[k].second, p.mean,
+                    p.stderr_of_mean());
+        EXPECT_LE(std::abs(p.mean), 4.0 * p.stderr_of_mean() + 1e-7);
+    }
 }
 
 inline std::vector<float> render_combined(const Scene& scene, const RenderSettings& rs, RenderStats* stats = nullptr) {
