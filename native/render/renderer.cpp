@@ -624,9 +624,9 @@ bool Renderer::render(const ProgressCallback& progress) {
         const TileJob job =
             pass_job(ctx, sampler, film_, settings_, cancelled_, converged_, sample_targets_, wavefront.get());
         render_batch(arena, L, job, done, count, settings_, stats_, [&](int tile_passes) {
-            // (Distributing, the mean count of the last batch: the film's
-            // counts are being written by the other threads.)
-            const double fraction = distribute && !sample_targets_.empty()
+            // (Distributing, the mean count of the last batch: this batch's
+            // samples are counted in per-thread stats until it ends.)
+            const double fraction = !sample_targets_.empty()
                                         ? double(stats_.spp) / spp
                                         : (done + double(tile_passes) / L.tiles) / spp;
             if (reporter.due() && !reporter.report(stats_.spp, std::min(fraction, 1.0), stats_)) cancel();
@@ -642,8 +642,11 @@ bool Renderer::render(const ProgressCallback& progress) {
         }
         seconds_per_pass = seconds / count;
         done += count;
+        // Distributing, pixels hold different counts: report their mean (the
+        // stats count exactly the samples the film took).
+        stats_.spp = sample_targets_.empty() ? done
+                                             : int(std::lround(double(stats_.samples) / double(stats_.pixels)));
         // O(pixels), once per batch.
-        stats_.spp = distribute && !sample_targets_.empty() ? int(std::lround(mean_samples())) : done;
         if (done >= 2 && settings_.error_estimated()) stats_.error_estimate = film_.relative_rmse_estimate();
         if (distribute && sample_targets_.empty() && done == SampleDistribution::uniform_passes(spp)) {
             sample_targets_ = SampleDistribution::targets(film_, spp);
@@ -686,14 +689,6 @@ void Renderer::reset_stats() {
     converged_.clear();
     if (settings_.adaptive) converged_.assign(size_t(bw) * size_t(bh), 0);
     sample_targets_.clear();
-}
-
-double Renderer::mean_samples() const {
-    const size_t size = size_t(film_.width()) * size_t(film_.height());
-    uint64_t total = 0;
-    for (int y = 0; y < film_.height(); ++y)
-        for (int x = 0; x < film_.width(); ++x) total += film_.samples_at(x, y);
-    return size ? double(total) / double(size) : 0.0;
 }
 
 bool Renderer::stop_after_pass(int passes_done, int spp) {

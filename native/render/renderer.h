@@ -95,7 +95,6 @@ private:
     // Distributing samples: each pixel's sample count, set after the
     // uniform passes (sample_distribution.h); empty until then or when off.
     std::vector<uint32_t> sample_targets_;
-    double mean_samples() const;  // over the film's pixels
     // Marks pixels converged by the rule in settings.h; returns how many are now.
     uint64_t update_convergence();
     // render() in steps: statistics and convergence flags of a new render;
