@@ -49,6 +49,9 @@ std::string help_for(const SettingSpec& spec) {
         help += "; the CLI writes OUT.bvh_visits.exr/.png and OUT.simd.exr/.png (float EXR plus a false-colour "
                 "viridis PNG, dark = low) and prints their value ranges";
     if (spec.type != SettingType::Bool) help += " (default " + format_setting_value(spec, spec.default_value()) + ")";
+    // A flag turns a setting on; one that is on already needs saying how to turn it off.
+    if (spec.type == SettingType::Bool && std::get<bool>(spec.default_value()))
+        help += " (on by default; " + spec.cli_name + "=false turns it off)";
     return help;
 }
 

@@ -162,8 +162,7 @@ std::vector<SettingSpec> sampling_rows() {
     t.push_back(flag("distribute_samples", "Distribute Samples", "Sampling", &RenderSettings::distribute_samples,
                      "when denoising a render of a fixed sample count: every pixel takes half of the samples, and "
                      "the other half go where the denoiser is predicted to leave the most error (edges, fine "
-                     "texture, small lights), the same samples per pixel on average (SPT sampler); on by default, "
-                     "--distribute-samples=false turns it off"));
+                     "texture, small lights), the same samples per pixel on average (SPT sampler)"));
     t.push_back(flag("denoising_data", "Denoising Data", "Sampling", &RenderSettings::denoising_data,
                      "fill the 'Denoising Albedo', 'Denoising Normal' and 'Denoising Depth' passes (also filled "
                      "when denoising)"));
