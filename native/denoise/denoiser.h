@@ -5,7 +5,8 @@
 //
 // Inputs are the film's two half-buffers (the even and the odd sample
 // passes, independent by construction, film.h), its feature buffers
-// (Denoising Albedo and Normal, denoising_features.h) and its depth:
+// (Denoising Albedo and Normal, denoising_features.h), its depth and its
+// direct light:
 //   1. Demodulate: each half's mean radiance is divided by its own albedo,
 //      so textures are never blurred (they come back with the albedo).
 //   2. Cross-filter: each half is filtered with weights computed from the
@@ -22,6 +23,11 @@
 //      output averages the fits of all windows containing it (collaborative).
 //      Two candidates (7 x 7 and 3 x 3 patches) are selected per pixel by
 //      their error estimated from the other half.
+//   Where the direct light (the film's add_direct_light: what reached the
+//   camera after at most one scattering) is less than half of the noise, it
+//   and the rest of the radiance go through steps 1-4 apart (one candidate
+//   each, with the outliers of their sum) and are added: its sharp detail
+//   would otherwise keep the weights from averaging the indirect noise.
 //   5. Recombine the filtered halves as the film combines the raw ones, and
 //      estimate the result's error from their difference exactly as
 //      Film::relative_rmse_estimate() does for the raw image. That estimate

@@ -54,6 +54,7 @@ void Film::clear() {
     heat_count_.clear();
     const bool features = has_denoising_features();
     albedo_.clear(), albedo_odd_.clear(), dnormal_.clear(), dnormal_odd_.clear(), ddepth_.clear();
+    direct_.clear(), direct_odd_.clear();
     if (features) enable_denoising_features();
     denoised_.clear();
     const PassMask passes = passes_;
@@ -186,7 +187,8 @@ void Film::resolve_render_pass(PassType t, size_t i, float* out) const {
 void Film::enable_denoising_features() {
     const size_t n = size_t(width_) * size_t(height_);
     if (albedo_.size() == 3 * n && n > 0) return;
-    for (std::vector<float>* b : {&albedo_, &albedo_odd_, &dnormal_, &dnormal_odd_}) b->assign(3 * n, 0.0f);
+    for (std::vector<float>* b : {&albedo_, &albedo_odd_, &dnormal_, &dnormal_odd_, &direct_, &direct_odd_})
+        b->assign(3 * n, 0.0f);
     ddepth_.assign(n, 0.0f);
 }
 
@@ -206,6 +208,14 @@ void Film::add_denoising_features(int x, int y, const Vec3f& albedo, const Vec3f
         }
 }
 
+void Film::add_direct_light(int x, int y, const Vec3f& direct, uint32_t sample) {
+    const size_t i = 3 * (size_t(y) * size_t(width_) + size_t(x));
+    const float d[3] = {direct.x, direct.y, direct.z};
+    for (int c = 0; c < 3; ++c) direct_[i + c] += d[c];
+    if (sample & 1u)
+        for (int c = 0; c < 3; ++c) direct_odd_[i + c] += d[c];
+}
+
 Film::Sums Film::sums() const {
     const bool f = has_denoising_features();
     return {rgba_.data(),
@@ -217,7 +227,9 @@ Film::Sums Film::sums() const {
             f ? dnormal_.data() : nullptr,
             f ? dnormal_odd_.data() : nullptr,
             depth_.data(),
-            hits_.data()};
+            hits_.data(),
+            f ? direct_.data() : nullptr,
+            f ? direct_odd_.data() : nullptr};
 }
 
 void Film::set_denoised(std::vector<float> rgb) {

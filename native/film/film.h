@@ -118,6 +118,11 @@ public:
     bool has_denoising_features() const { return !albedo_.empty(); }
     void add_denoising_features(int x, int y, const Vec3f& albedo, const Vec3f& normal, float depth,
                                 uint32_t sample);
+    // With the features, the part of each sample's radiance that reached the
+    // camera after at most one scattering (PathOutput::direct), over all
+    // samples and the odd passes': the denoiser filters it apart from the
+    // rest where it is nearly noise-free (denoiser.h).
+    void add_direct_light(int x, int y, const Vec3f& direct, uint32_t sample);
 
     // The accumulation buffers as the denoiser reads them: per pixel i,
     // sums over all samples and over the odd passes' samples (rgba: 4 floats
@@ -134,6 +139,8 @@ public:
         const float* normal_odd;
         const float* depth;
         const uint32_t* hits;
+        const float* direct;  // 3 a pixel, like albedo (null without features)
+        const float* direct_odd;
     };
     Sums sums() const;
 
@@ -178,7 +185,7 @@ private:
     std::vector<float> heat_;     // 2 per pixel: sums of node visits, SIMD utilisation
     std::vector<uint32_t> heat_count_;  // heatmap samples per pixel
     // Denoising features, sums (3 per pixel; depth 1); empty unless enabled.
-    std::vector<float> albedo_, albedo_odd_, dnormal_, dnormal_odd_, ddepth_;
+    std::vector<float> albedo_, albedo_odd_, dnormal_, dnormal_odd_, ddepth_, direct_, direct_odd_;
     std::vector<float> denoised_;  // 3 per pixel; empty until set_denoised()
     PassMask passes_ = 0;
     std::vector<float> pass_sums_[kRenderPassCount];  // channels per pixel; empty unless enabled

@@ -70,6 +70,12 @@ struct PathOutput {
     Vec3f denoising_normal{0.0f};
     float denoising_depth = 0.0f;
     PassSample passes;  // Cycles' passes (film/passes.h); 0 unless enabled
+    // The part of `radiance` that reached the camera after at most one
+    // scattering: emission and the world seen directly, next-event
+    // estimation at the first hit, and what the first bounce's ray met
+    // (Cycles' Dir + Emit + Env). The denoiser filters it apart from the rest
+    // where it is nearly noise-free (denoiser.h); a few additions a path.
+    Vec3f direct{0.0f};
 };
 
 struct PathContext {
@@ -102,6 +108,7 @@ struct PathState {
     bool has_shadow = false;         // a shadow ray is waiting to be traced
     Ray shadow;
     Vec3f shadow_contribution{0.0f};  // added if the shadow ray is unoccluded
+    bool shadow_direct = false;        // queued at the first hit: its light is direct (PathOutput)
 
     Vec3f throughput{1.0f};
     int bounce = 0, diffuse_bounce = 0, glossy_bounce = 0, transmission_bounce = 0;
@@ -441,6 +448,7 @@ COHERENT_ALWAYS_INLINE void add_lights_passed(const PathContext& ctx, PathState&
                                                   s.transparent_bounce > 0 ? s.ray.tmin : 0.0f),
             s.bounce - 1, *ctx.settings);
         s.out.radiance += c;
+        if (s.bounce == 1) s.out.direct += c;
         if (s.pass.mask) passes::add_hit_light(s.pass, s.out.passes, c, s.bounce, false);
     }
 }
@@ -461,7 +469,9 @@ COHERENT_ALWAYS_INLINE void shade_miss(const PathContext& ctx, PathState& s) {
             s.out.alpha -= average(s.throughput);  // 1 - 1 = 0 straight from the camera
         } else {
             // Throughput 1 (exactly) unless transparent surfaces were passed.
-            s.out.radiance += clamp_contribution(s.throughput * ctx.lights->world_radiance(s.ray.d), -1, rs);
+            const Vec3f c = clamp_contribution(s.throughput * ctx.lights->world_radiance(s.ray.d), -1, rs);
+            s.out.radiance += c;
+            s.out.direct += c;
         }
         // Env holds the world also under a transparent film, as in Cycles.
         if (s.pass.mask && rs.integrator != Integrator::AmbientOcclusion)
@@ -470,6 +480,7 @@ COHERENT_ALWAYS_INLINE void shade_miss(const PathContext& ctx, PathState& s) {
         const Vec3f c = clamp_contribution(
             s.throughput * ctx.lights->escaped(s.ray.d, s.prev_n, s.prev_transmissive, s.prev_pdf), s.bounce - 1, rs);
         s.out.radiance += c;
+        if (s.bounce == 1) s.out.direct += c;
         if (s.pass.mask) passes::add_hit_light(s.pass, s.out.passes, c, s.bounce, true);
     }
 }
@@ -494,6 +505,7 @@ COHERENT_ALWAYS_INLINE void add_emission(const PathContext& ctx, PathState& s, c
     }
     const Vec3f c = clamp_contribution(s.throughput * mat.emission * w, s.bounce - 1, *ctx.settings);
     s.out.radiance += c;
+    if (s.bounce <= 1) s.out.direct += c;
     if (s.pass.mask) passes::add_hit_light(s.pass, s.out.passes, c, s.bounce, false);
 }
 
@@ -585,6 +597,7 @@ COHERENT_ALWAYS_INLINE Vec3f transparency_at(const PathContext& ctx, const PathS
         if (is_black(t)) return;
     }
     s.out.radiance += s.shadow_contribution * t;
+    if (s.shadow_direct) s.out.direct += s.shadow_contribution * t;
     if (s.pass.mask) passes::add_shadow(s.pass, s.out.passes, s.shadow_contribution * t);
 }
 
@@ -606,6 +619,7 @@ COHERENT_ALWAYS_INLINE void queue_shadow_ray(const PathContext& ctx, const PathS
     const float w = ls.delta ? 1.0f : power_heuristic(ls.pdf, bsdf_pdf);
     s.shadow_contribution = clamp_contribution(s.throughput * f * ls.li * (w / ls.pdf), s.bounce, *ctx.settings);
     s.has_shadow = true;
+    s.shadow_direct = s.bounce == 0;
     if (s.pass.mask) passes::queue_shadow(s.pass, bsdf, ls.wi, s.bounce);
     if (ctx.scene->features.transparent) trace_transparent_shadow(ctx, s);
 }
@@ -784,6 +798,7 @@ COHERENT_ALWAYS_INLINE Ray occlusion_ray(const PathContext& ctx, const PathSampl
 COHERENT_ALWAYS_INLINE void resolve_occlusion(PathState& s, int unoccluded) {
     if (s.has_shadow) {
         if (unoccluded > 0) s.out.radiance += s.shadow_contribution;
+        if (unoccluded > 0 && s.shadow_direct) s.out.direct += s.shadow_contribution;
         if (unoccluded > 0 && s.pass.mask) passes::add_shadow(s.pass, s.out.passes, s.shadow_contribution);
         s.has_shadow = false;
         return;

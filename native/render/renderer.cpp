@@ -86,6 +86,9 @@ struct TileJob {
             film->add_denoising_features(x - border_x0, y - border_y0, ok ? o.albedo : Vec3f(0.0f),
                                          ok ? o.denoising_normal : Vec3f(0.0f), ok ? o.denoising_depth : 0.0f,
                                          sample);
+            // Finite where the radiance is (a part of it); the guard keeps that an invariant.
+            film->add_direct_light(x - border_x0, y - border_y0, is_finite(o.direct) ? o.direct : Vec3f(0.0f),
+                                   sample);
         }
         if (passes) add_passes(x, y, sample, o.passes, st);
         ++st.samples;

@@ -160,6 +160,78 @@ TEST(Denoise, KeepsIsolatedHighlightsSeenInBothHalves) {
     EXPECT_LT(kept, 1.2);
 }
 
+// Direct light filtered apart. A surface whose direct light has detail at
+// pixel scale (bump shading: every pixel its own value, no neighbour
+// predicts it) and no noise, plus smooth indirect light carrying all the
+// noise. Filtered whole, the detail keeps the colour weights from averaging
+// the noise; filtered apart, the direct part stays exact and the indirect
+// part averages over the whole window. The control film has the same
+// samples without the direct light's sums, so the whole radiance is
+// filtered (as a film of an older renderer would be).
+struct SplitFilms {
+    Film with_direct{kSize, kSize}, without{kSize, kSize};
+    std::vector<float> exact;  // 3 a pixel
+};
+
+// direct_noise: whether the direct light, instead of the indirect, carries the noise.
+SplitFilms split_films(bool direct_noise, uint32_t seed) {
+    SplitFilms f;
+    f.exact.resize(3 * kSize * kSize);
+    f.with_direct.enable_denoising_features();
+    f.without.enable_denoising_features();
+    std::mt19937 rng(seed);
+    std::exponential_distribution<float> noise(1.0f);
+    const Vec3f n(0.0f, 0.0f, -1.0f), albedo(0.6f, 0.5f, 0.4f);
+    auto bump = [](int x, int y) { return 0.3f + 0.7f * float((x * 7919 + y * 104729) % 97) / 96.0f; };
+    for (int y = 0; y < kSize; ++y)
+        for (int x = 0; x < kSize; ++x) {
+            const Vec3f e = albedo * (bump(x, y) + 0.3f);
+            const size_t i = 3 * (size_t(y) * kSize + size_t(x));
+            f.exact[i] = e.x, f.exact[i + 1] = e.y, f.exact[i + 2] = e.z;
+        }
+    for (int pass = 0; pass < 16; ++pass)
+        for (int y = 0; y < kSize; ++y)
+            for (int x = 0; x < kSize; ++x) {
+                const float u = noise(rng);
+                const Vec3f direct = albedo * bump(x, y) * (direct_noise ? u : 1.0f);
+                const Vec3f indirect = albedo * 0.3f * (direct_noise ? 1.0f : u);
+                for (Film* film : {&f.with_direct, &f.without}) {
+                    film->add_sample(x, y, direct + indirect, 1.0f, 1.0f, n, uint32_t(pass));
+                    film->add_denoising_features(x, y, albedo, n, 0.0f, uint32_t(pass));
+                }
+                f.with_direct.add_direct_light(x, y, direct, uint32_t(pass));
+            }
+    return f;
+}
+
+double relative_rmse_to(const std::vector<float>& img, const std::vector<float>& exact) {
+    double err2 = 0.0, mean = 0.0;
+    for (size_t k = 0; k < exact.size(); ++k) err2 += (img[k] - exact[k]) * (img[k] - exact[k]), mean += exact[k];
+    return std::sqrt(err2 / double(exact.size())) / (mean / double(exact.size()));
+}
+
+TEST(Denoise, NoiseFreeDirectLightIsFilteredApart) {
+    const SplitFilms f = split_films(false, 31);
+    const DenoiseResult apart = denoise(f.with_direct), whole = denoise(f.without);
+    ASSERT_EQ(apart.rgb.size(), f.exact.size());
+    ASSERT_EQ(whole.rgb.size(), f.exact.size());
+    const double noisy = relative_rmse_to(rgb_of(f.without.resolve(PassType::Combined)), f.exact);
+    const double e_apart = relative_rmse_to(apart.rgb, f.exact), e_whole = relative_rmse_to(whole.rgb, f.exact);
+    std::printf("relative RMSE: noisy 16 spp %.4f, denoised whole %.4f, direct light apart %.4f\n", noisy, e_whole,
+                e_apart);
+    EXPECT_LT(e_apart, 0.6 * e_whole);
+    for (float v : apart.rgb) ASSERT_TRUE(std::isfinite(v));
+}
+
+// Where the direct light carries the noise, it is filtered with the rest:
+// the same result, bit for bit, as without its sums.
+TEST(Denoise, NoisyDirectLightIsFilteredWhole) {
+    const SplitFilms f = split_films(true, 32);
+    const DenoiseResult with_direct = denoise(f.with_direct), without = denoise(f.without);
+    ASSERT_EQ(with_direct.rgb.size(), f.exact.size());
+    EXPECT_EQ(with_direct.rgb, without.rgb);
+}
+
 // Depth as a feature: a square in front of a wall, both with the same
 // albedo and normal, lit 1.0 and 0.6. At 16 spp the colour patches cannot
 // tell the step from the noise, so only the depth keeps the windows on one

@@ -69,6 +69,47 @@ TEST(Passes, LightPassesAddUpToCombinedForEveryTraversal) {
     }
 }
 
+// The direct light the denoiser may filter apart (Film::add_direct_light,
+// PathOutput::direct) is Cycles' Dir of every lobe plus Emit and Env, which
+// the light passes compute on their own, for every traversal.
+TEST(Passes, DenoisingDirectLightIsDirPlusEmitPlusEnv) {
+    const Scene scene = lobes_scene(false, 9.0f);
+    for (Traversal t : {Traversal::Single, Traversal::Packet, Traversal::Stream, Traversal::Wavefront}) {
+        RenderSettings rs = small_settings(48, 4);
+        rs.traversal = t;
+        rs.passes = kLightPassMask;
+        rs.denoising_data = true;
+        Renderer r(scene, rs);
+        r.render();
+        const Film& film = r.film();
+        const size_t n = size_t(film.width()) * size_t(film.height());
+        std::vector<float> want(3 * n, 0.0f);
+        for (RenderPass p : {RenderPass::DiffuseDirect, RenderPass::GlossyDirect, RenderPass::TransmissionDirect}) {
+            const auto dir = film.resolve(pass_type(p));
+            const auto col = film.resolve(pass_type(RenderPass(int(p) + 2)));
+            for (size_t k = 0; k < 3 * n; ++k) want[k] += dir[k] * col[k];
+        }
+        for (RenderPass p : {RenderPass::Emission, RenderPass::Environment}) {
+            const auto v = film.resolve(pass_type(p));
+            for (size_t k = 0; k < 3 * n; ++k) want[k] += v[k];
+        }
+        const Film::Sums s = film.sums();
+        ASSERT_NE(s.direct, nullptr);
+        double worst = 0.0, total = 0.0, combined = 0.0;
+        for (size_t i = 0; i < n; ++i)
+            for (int c = 0; c < 3; ++c) {
+                const double got = s.count[i] ? s.direct[3 * i + size_t(c)] / double(s.count[i]) : 0.0;
+                worst = std::max(worst, std::abs(got - want[3 * i + size_t(c)]) / std::max(1.0, std::abs(got)));
+                total += got;
+                combined += s.count[i] ? s.rgba[4 * i + size_t(c)] / double(s.count[i]) : 0.0;
+            }
+        EXPECT_LT(worst, 2e-5) << "traversal " << int(t);
+        // Not vacuous: direct light is most, not all, of this scene's light.
+        EXPECT_GT(total, 0.3 * combined) << "traversal " << int(t);
+        EXPECT_LT(total, 0.99 * combined) << "traversal " << int(t);
+    }
+}
+
 // Passes copy contributions; they never change what Combined adds up.
 TEST(Passes, EnablingPassesLeavesCombinedBitIdentical) {
     const Scene scene = lobes_scene(false, 9.0f);
