@@ -21,6 +21,16 @@ RenderSettings small_settings(int size, int spp) {
     return rs;
 }
 
+constexpr Traversal kTraversals[] = {Traversal::Single, Traversal::Packet, Traversal::Stream, Traversal::Wavefront};
+
+// The light passes of lobes_scene, 48 x 48 at 4 spp, with traversal t.
+RenderSettings light_pass_settings(Traversal t) {
+    RenderSettings rs = small_settings(48, 4);
+    rs.traversal = t;
+    rs.passes = kLightPassMask;
+    return rs;
+}
+
 // (Dir + Ind) x Col per lobe, plus Emit and Env, per pixel and channel.
 std::vector<float> light_pass_sum(const Film& film) {
     const size_t n = size_t(film.width()) * size_t(film.height());
@@ -43,11 +53,8 @@ std::vector<float> light_pass_sum(const Film& film) {
 // at the image's edges: every light pass is non-zero somewhere.
 TEST(Passes, LightPassesAddUpToCombinedForEveryTraversal) {
     const Scene scene = lobes_scene(false, 9.0f);
-    for (Traversal t : {Traversal::Single, Traversal::Packet, Traversal::Stream, Traversal::Wavefront}) {
-        RenderSettings rs = small_settings(48, 4);
-        rs.traversal = t;
-        rs.passes = kLightPassMask;
-        Renderer r(scene, rs);
+    for (Traversal t : kTraversals) {
+        Renderer r(scene, light_pass_settings(t));
         r.render();
         const auto combined = r.film().resolve(PassType::Combined);
         const auto sum = light_pass_sum(r.film());
@@ -74,10 +81,8 @@ TEST(Passes, LightPassesAddUpToCombinedForEveryTraversal) {
 // the light passes compute on their own, for every traversal.
 TEST(Passes, DenoisingDirectLightIsDirPlusEmitPlusEnv) {
     const Scene scene = lobes_scene(false, 9.0f);
-    for (Traversal t : {Traversal::Single, Traversal::Packet, Traversal::Stream, Traversal::Wavefront}) {
-        RenderSettings rs = small_settings(48, 4);
-        rs.traversal = t;
-        rs.passes = kLightPassMask;
+    for (Traversal t : kTraversals) {
+        RenderSettings rs = light_pass_settings(t);
         rs.denoising_data = true;
         Renderer r(scene, rs);
         r.render();
