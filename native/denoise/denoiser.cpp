@@ -848,7 +848,7 @@ bool filter_signal(Image& img, const Outliers* outliers, const FilterParams& par
     // Second pass: regressions of the raw halves, with weights from the
     // first pass's output, whose patches are far less noisy; two candidates
     // (patches 7 x 7 and 3 x 3: the smaller follows finer detail, the larger
-    // averages more), selected per pixel.
+    // averages more), selected per pixel, or the 7 x 7 alone.
     set_guides(img, first);
     estimate_variances(img, kGuideA, kGuideB, kGuideVarA, kGuideVarB, false);
     if (!regression_filter(img, params, run, second)) return false;
