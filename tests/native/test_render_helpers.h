@@ -153,7 +153,7 @@ inline MeanVar mean_var(const std::vector<double>& v) {
 struct PairedDifferences {
     int width;
     std::vector<std::pair<int, int>> pixels;  // (x, y)
-    std::vector<double> image;
+    std::vector<double> image{};  // a default: brace-initialised without it, GCC warns (-Wmissing-field-initializers)
     std::vector<std::vector<double>> at = std::vector<std::vector<double>>(pixels.size());
 
     // a, b: RGBA images of `width` columns.
