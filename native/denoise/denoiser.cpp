@@ -96,9 +96,10 @@ inline float exp_negative(float x) {
     return p * std::bit_cast<float>((int32_t(whole) + 127) << 23);
 }
 
-// Variance of a mean of n samples from the difference of its two halves'
-// sums: |even mean - odd mean|^2 n_e n_o / n^2 (film.h), summed over channels.
-float feature_variance(const float* sum, const float* sum_odd, uint32_t n, uint32_t n_odd) {
+// Variance of a mean of n samples (a feature's or the radiance's) from the
+// difference of its two halves' sums: |even mean - odd mean|^2 n_e n_o / n^2
+// (film.h), summed over channels.
+float halves_variance(const float* sum, const float* sum_odd, uint32_t n, uint32_t n_odd) {
     const uint32_t n_even = n - n_odd;
     if (!n_odd || !n_even) return 0.0f;
     float v = 0.0f;
@@ -113,6 +114,22 @@ float feature_variance(const float* sum, const float* sum_odd, uint32_t n, uint3
 // Each half is demodulated by its own albedo: a pixel's coverage of a bright
 // emitter or a texture edge varies between the halves in colour and albedo
 // alike, and the ratio cancels it.
+// The demodulated halves (kA, kB) of pixel i, which has samples in both.
+void read_halves(const Film::Sums& s, size_t i, Image& img) {
+    const uint32_t n_odd = s.count_odd[i], n_even = s.count[i] - n_odd;
+    for (int c = 0; c < 3; ++c) {
+        float even_albedo = 1.0f, odd_albedo = 1.0f;
+        if (s.albedo) {
+            odd_albedo = s.albedo_odd[3 * i + c] / float(n_odd);
+            even_albedo = (s.albedo[3 * i + c] - s.albedo_odd[3 * i + c]) / float(n_even);
+        }
+        const float odd = s.rgb_odd[3 * i + c] / float(n_odd);
+        const float even = (s.rgba[4 * i + c] - s.rgb_odd[3 * i + c]) / float(n_even);
+        img.planes[kA + c][i] = even / (std::max(even_albedo, 0.0f) + kAlbedoBias);
+        img.planes[kB + c][i] = odd / (std::max(odd_albedo, 0.0f) + kAlbedoBias);
+    }
+}
+
 bool read_pixel(const Film::Sums& s, size_t i, Image& img) {
     const uint32_t n = s.count[i], n_odd = s.count_odd[i], n_even = n - n_odd;
     img.planes[kValid][i] = n > 0 ? 1.0f : 0.0f;
@@ -121,24 +138,16 @@ bool read_pixel(const Film::Sums& s, size_t i, Image& img) {
     img.n_even[i] = float(n_even), img.n_odd[i] = float(n_odd);
     const float inv = 1.0f / float(n);
     for (int c = 0; c < 3; ++c) {
-        float albedo = 1.0f, even_albedo = 1.0f, odd_albedo = 1.0f;
-        if (s.albedo) {
-            albedo = s.albedo[3 * i + c] * inv;
-            odd_albedo = s.albedo_odd[3 * i + c] / float(n_odd);
-            even_albedo = (s.albedo[3 * i + c] - s.albedo_odd[3 * i + c]) / float(n_even);
-        }
+        const float albedo = s.albedo ? s.albedo[3 * i + c] * inv : 1.0f;
         img.planes[kAlbedo + c][i] = albedo;
         img.planes[kNormal + c][i] = s.normal ? s.normal[3 * i + c] * inv : 0.0f;
         img.modulation[3 * i + c] = std::max(albedo, 0.0f) + kAlbedoBias;
-        const float odd = s.rgb_odd[3 * i + c] / float(n_odd);
-        const float even = (s.rgba[4 * i + c] - s.rgb_odd[3 * i + c]) / float(n_even);
-        img.planes[kA + c][i] = even / (std::max(even_albedo, 0.0f) + kAlbedoBias);
-        img.planes[kB + c][i] = odd / (std::max(odd_albedo, 0.0f) + kAlbedoBias);
     }
+    read_halves(s, i, img);
     img.planes[kDepth][i] =
         s.hits[i] ? std::log(std::max(s.depth[i] / float(s.hits[i]), 1e-6f)) : kNoHitLogDepth;
     if (s.albedo) {
-        img.planes[kNormalVar][i] = feature_variance(s.normal + 3 * i, s.normal_odd + 3 * i, n, n_odd);
+        img.planes[kNormalVar][i] = halves_variance(s.normal + 3 * i, s.normal_odd + 3 * i, n, n_odd);
     }
     return true;
 }
@@ -808,6 +817,14 @@ void add_remodulated(const Image& img, const std::vector<float> (*halves)[3], st
     }
 }
 
+// Replaces img's halves by those of `sums`, a part of the film img was read
+// from (read_image): the features, counts and modulation stay.
+void read_part_halves(const Film::Sums& sums, Image& img) {
+    const size_t size = size_t(img.width) * size_t(img.height);
+    for (size_t i = 0; i < size; ++i)
+        if (img.planes[kValid][i] != 0.0f) read_halves(sums, i, img);
+}
+
 // Reads the film's sums into img; false if some pixel with samples lacks a half.
 bool read_image(const Film::Sums& sums, int width, int height, Image& img) {
     img.width = width, img.height = height;
@@ -905,16 +922,11 @@ bool filter_direct_apart(const Film::Sums& s, size_t size) {
     if (!s.direct) return false;
     double var_all = 0.0, var_direct = 0.0, light_all = 0.0, light_direct = 0.0;
     for (size_t i = 0; i < size; ++i) {
-        const uint32_t n = s.count[i], n_odd = s.count_odd[i], n_even = n - n_odd;
-        if (!n_odd || !n_even) continue;
-        const double scale = double(n_even) * double(n_odd) / (double(n) * double(n));
+        const uint32_t n = s.count[i], n_odd = s.count_odd[i];
+        if (!n) continue;
+        var_all += halves_variance(s.rgba + 4 * i, s.rgb_odd + 3 * i, n, n_odd);
+        var_direct += halves_variance(s.direct + 3 * i, s.direct_odd + 3 * i, n, n_odd);
         for (int c = 0; c < 3; ++c) {
-            const double odd = s.rgb_odd[3 * i + c] / double(n_odd);
-            const double even = (s.rgba[4 * i + c] - s.rgb_odd[3 * i + c]) / double(n_even);
-            const double d_odd = s.direct_odd[3 * i + c] / double(n_odd);
-            const double d_even = (s.direct[3 * i + c] - s.direct_odd[3 * i + c]) / double(n_even);
-            var_all += (even - odd) * (even - odd) * scale;
-            var_direct += (d_even - d_odd) * (d_even - d_odd) * scale;
             light_all += s.rgba[4 * i + c] / double(n);
             light_direct += s.direct[3 * i + c] / double(n);
         }
@@ -958,9 +970,8 @@ DenoiseResult denoise(const Film& film, const DenoiseOptions& options, const Den
         const Outliers outliers = suppress_outliers(img);
         for (const bool direct : {true, false}) {
             const PartSums part(sums, size, direct);
-            if (!read_image(part.sums, width, height, img) ||
-                !filter_signal(img, &outliers, params, false, run, fa, fb))
-                return;
+            read_part_halves(part.sums, img);
+            if (!filter_signal(img, &outliers, params, false, run, fa, fb)) return;
         }
         complete = true;
     });
