@@ -273,6 +273,15 @@ struct PatchDistances {
     std::vector<float> raw_a, raw_b, raw_n, row_a, row_b, row_n, dist_a, dist_b;
 };
 
+// A pixel's term of a patch distance is capped: where the variance is 0 (a
+// noise-free albedo, an emitter's inside) it would reach 1e10 and more, and
+// patch_distances' running sums, which add and later subtract each term,
+// would lose the small terms beside it to rounding (a patch of equal pixels
+// then came out at a distance of -6 instead of 0). 1e4 still puts one
+// differing pixel of a 7 x 7 patch at a distance of 200, a weight of 0,
+// while the rounding stays below 1e-2.
+constexpr float kMaxDistanceTerm = 1e4f;
+
 // The colour distance of every pixel p of `row` to p + (dx, 0) of `row_q`
 // over x in [x0, x1), in guide `g` (planes g..g+2, variances v..v+2).
 void row_colour_distances(const Image& img, size_t row, size_t row_q, int x0, int x1, int dx, int g, int v, float k2,
@@ -286,12 +295,15 @@ void row_colour_distances(const Image& img, size_t row, size_t row_q, int x0, in
         const float* vq = img.plane(v + c) + row_q + dx;
         for (int x = x0; x < x1; ++x) {
             const float diff = gp[x] - gq[x], var = vp[x] + vq[x];
-            o[x] += (diff * diff - var) / (kEpsilon + k2 * var) * (1.0f / 3.0f);
+            o[x] += std::min((diff * diff - var) / (kEpsilon + k2 * var), kMaxDistanceTerm) * (1.0f / 3.0f);
         }
     }
 }
 
-void patch_distances(const Image& img, int y0, int y1, int dx, int dy, int f, float k2, PatchDistances& s) {
+// Both guides' distances (dist_a, dist_b), or without `second_guide` guide
+// A's alone (dist_b then 0).
+void patch_distances(const Image& img, int y0, int y1, int dx, int dy, int f, float k2, PatchDistances& s,
+                     bool second_guide = true) {
     const int w = img.width, h = img.height;
     const int r0 = std::max(0, y0 - f), r1 = std::min(h, y1 + f), rows = r1 - r0;
     const size_t n = size_t(rows) * size_t(w);
@@ -303,7 +315,7 @@ void patch_distances(const Image& img, int y0, int y1, int dx, int dy, int f, fl
         if (qy < 0 || qy >= h) continue;
         const size_t row = size_t(y) * size_t(w), row_q = size_t(qy) * size_t(w), base = size_t(y - r0) * size_t(w);
         row_colour_distances(img, row, row_q, x0, x1, dx, kGuideA, kGuideVarA, k2, s.raw_a.data() + base);
-        row_colour_distances(img, row, row_q, x0, x1, dx, kGuideB, kGuideVarB, k2, s.raw_b.data() + base);
+        if (second_guide) row_colour_distances(img, row, row_q, x0, x1, dx, kGuideB, kGuideVarB, k2, s.raw_b.data() + base);
         for (int x = x0; x < x1; ++x) {
             const float both = valid[row + size_t(x)] * valid[row_q + size_t(x + dx)];
             s.raw_a[base + size_t(x)] *= both, s.raw_b[base + size_t(x)] *= both, s.raw_n[base + size_t(x)] = both;
@@ -710,6 +722,142 @@ bool for_each_band(const Image& img, Run& run, Work&& band_work) {
     return !run.stopped();
 }
 
+// --- the albedo's prefilter -----------------------------------------------------
+//
+// The albedo is noise-free inside a surface but not in a pixel whose samples
+// see two (an emitter's outline, a silhouette, texture finer than a pixel):
+// there its mean carries the same coverage noise as the radiance. Each half
+// is demodulated by its own albedo, which cancels that noise in the filtered
+// illumination (read_halves), but remodulating with the pixel's noisy mean
+// albedo brought it back: on the emissive-mesh scene at 512 x 512, 16 spp,
+// the one row of pixels on the ceiling light's edge held 38 % of the
+// denoised image's squared error. So, as NFOR prefilters its features, the
+// mean albedo is first filtered by non-local means in units of its own
+// variance, and the regressions and the remodulation use the result: along
+// an edge, pixels whose albedo differs only by noise are averaged, while a
+// real difference (a texture, the other side of the edge) weighs
+// exp(-difference^2 / variance). An 11 x 11 window with 5 x 5 patches was
+// no worse than without on any of the 12 scenes measured, where 15 x 15
+// windows or k = 2 blurred Sponza's textures (docs/results/denoise.md,
+// fifteenth session).
+constexpr int kAlbedoWindowRadius = 5;
+constexpr int kAlbedoPatchRadius = 2;
+constexpr float kAlbedoK = 1.0f;
+
+// Whether each pixel has a pixel whose albedo varies between the halves
+// within `radius`: elsewhere every weight of the prefilter would pick an
+// equal albedo, so it is left exactly as it is.
+std::vector<uint8_t> near_albedo_noise(const std::vector<uint8_t>& noisy, int w, int h, int radius) {
+    // Summed-area table of the noisy pixels.
+    std::vector<uint32_t> table(size_t(w + 1) * size_t(h + 1), 0);
+    for (int y = 0; y < h; ++y)
+        for (int x = 0; x < w; ++x)
+            table[size_t(y + 1) * size_t(w + 1) + size_t(x + 1)] =
+                noisy[size_t(y) * size_t(w) + size_t(x)] + table[size_t(y) * size_t(w + 1) + size_t(x + 1)] +
+                table[size_t(y + 1) * size_t(w + 1) + size_t(x)] - table[size_t(y) * size_t(w + 1) + size_t(x)];
+    std::vector<uint8_t> near(size_t(w) * size_t(h));
+    for (int y = 0; y < h; ++y)
+        for (int x = 0; x < w; ++x) {
+            const size_t y0 = size_t(std::max(0, y - radius)), y1 = size_t(std::min(h, y + radius + 1));
+            const size_t x0 = size_t(std::max(0, x - radius)), x1 = size_t(std::min(w, x + radius + 1));
+            const size_t row = size_t(w + 1);
+            near[size_t(y) * size_t(w) + size_t(x)] =
+                table[y1 * row + x1] + table[y0 * row + x0] > table[y0 * row + x1] + table[y1 * row + x0];
+        }
+    return near;
+}
+
+// Band [y0, y1) of the non-local means of guide A (the albedo) with weights
+// from its own patches, into out[c] at the pixels marked in `near`.
+bool albedo_band(const Image& img, const FilterParams& fp, const std::vector<uint8_t>& near, int y0, int y1,
+                 const Run& run, std::vector<float>* out) {
+    const int w = img.width, h = img.height, r = fp.window;
+    const size_t first = size_t(y0) * size_t(w), count = size_t(y1 - y0) * size_t(w);
+    if (std::none_of(near.begin() + ptrdiff_t(first), near.begin() + ptrdiff_t(first + count),
+                     [](uint8_t v) { return v != 0; }))
+        return true;
+    std::vector<float> sums[4];
+    for (auto& v : sums) v.assign(count, 0.0f);
+    const float* valid = img.plane(kValid);
+    PatchDistances dist;
+    for (int dy = -r; dy <= r; ++dy) {
+        if (run.stopped()) return false;
+        for (int dx = -r; dx <= r; ++dx) {
+            patch_distances(img, y0, y1, dx, dy, fp.patch, fp.k * fp.k, dist, false);
+            const int x0 = std::max(0, -dx), x1 = std::min(w, w - dx);
+            for (int y = std::max(y0, -dy); y < std::min(y1, h - dy); ++y) {
+                const size_t o = size_t(y - y0) * size_t(w), p = size_t(y) * size_t(w);
+                const size_t q = size_t(y + dy) * size_t(w);
+                for (int x = x0; x < x1; ++x) {
+                    const float wt = valid[p + size_t(x)] * valid[q + size_t(x + dx)] *
+                                     exp_negative(-std::max(0.0f, dist.dist_a[o + size_t(x)]));
+                    for (int c = 0; c < 3; ++c) sums[c][o + size_t(x)] += wt * img.planes[kGuideA + c][q + size_t(x + dx)];
+                    sums[3][o + size_t(x)] += wt;
+                }
+            }
+        }
+    }
+    for (size_t i = 0; i < count; ++i)
+        if (near[first + i] && sums[3][i] > 0.0f)
+            for (int c = 0; c < 3; ++c) out[c][first + i] = sums[c][i] / sums[3][i];
+    return true;
+}
+
+// Replaces img's albedo (the regressors) and modulation by the prefiltered
+// mean albedo. Uses the guide planes as scratch. False when cancelled.
+bool prefilter_albedo(const Film::Sums& s, Image& img, Run& run) {
+    if (!s.albedo) return true;
+    const int w = img.width, h = img.height;
+    const size_t size = size_t(w) * size_t(h);
+    // Each channel's variance of the mean from its halves (halves_variance
+    // per channel), then averaged over 3 x 3: one pixel's is a single
+    // chi-square draw.
+    std::vector<float> var(3 * size, 0.0f);
+    std::vector<uint8_t> noisy(size, 0);
+    for (size_t i = 0; i < size; ++i) {
+        const uint32_t n = s.count[i], n_odd = s.count_odd[i], n_even = n - n_odd;
+        if (!n_odd || !n_even) continue;
+        const float scale = float(n_even) * float(n_odd) / (float(n) * float(n));
+        for (int c = 0; c < 3; ++c) {
+            const float d = (s.albedo[3 * i + size_t(c)] - s.albedo_odd[3 * i + size_t(c)]) / float(n_even) -
+                            s.albedo_odd[3 * i + size_t(c)] / float(n_odd);
+            var[size_t(c) * size + i] = d * d * scale;
+            // Rounding alone (sums of equal albedos over unequal counts) differs by ~1e-7.
+            if (std::abs(d) > 1e-5f * std::abs(img.planes[kAlbedo + c][i]) + 1e-7f) noisy[i] = 1;
+        }
+    }
+    if (std::none_of(noisy.begin(), noisy.end(), [](uint8_t v) { return v != 0; })) return true;
+    for (int c = 0; c < 3; ++c) {
+        img.planes[kGuideA + c] = img.planes[kAlbedo + c];
+        float* out = img.plane(kGuideVarA + c);
+        const float* in = var.data() + size_t(c) * size;
+        tbb::parallel_for(0, h, [&](int y) {
+            for (int x = 0; x < w; ++x) {
+                float sum = 0.0f;
+                int count = 0;
+                for (int yy = std::max(0, y - 1); yy <= std::min(h - 1, y + 1); ++yy)
+                    for (int xx = std::max(0, x - 1); xx <= std::min(w - 1, x + 1); ++xx, ++count)
+                        sum += in[size_t(yy) * size_t(w) + size_t(xx)];
+                out[size_t(y) * size_t(w) + size_t(x)] = sum / float(count);
+            }
+        });
+    }
+    const FilterParams fp{kAlbedoK, kAlbedoWindowRadius, kAlbedoPatchRadius};
+    const std::vector<uint8_t> near = near_albedo_noise(noisy, w, h, fp.window + fp.patch + 1);
+    std::vector<float> filtered[3];
+    for (int c = 0; c < 3; ++c) filtered[c] = img.planes[kAlbedo + c];
+    if (!for_each_band(img, run, [&](int y0, int y1) { return albedo_band(img, fp, near, y0, y1, run, filtered); }))
+        return false;
+    for (size_t i = 0; i < size; ++i) {
+        if (!near[i]) continue;
+        for (int c = 0; c < 3; ++c) {
+            img.planes[kAlbedo + c][i] = filtered[c][i];
+            img.modulation[3 * i + size_t(c)] = std::max(filtered[c][i], 0.0f) + kAlbedoBias;
+        }
+    }
+    return true;
+}
+
 void allocate_halves(size_t size, std::vector<float> (*out)[3]) {
     for (int half = 0; half < 2; ++half)
         for (int c = 0; c < 3; ++c) out[half][c].assign(size, 0.0f);
@@ -948,15 +1096,16 @@ DenoiseResult denoise(const Film& film, const DenoiseOptions& options, const Den
     const bool apart = filter_direct_apart(sums, size);
     const int bands = (height + kBandRows - 1) / kBandRows;
     Run run{options, progress};
-    // Band-phases: a mean and two regressions of two phases; apart, a mean
-    // and one regression for each part.
-    run.steps = (apart ? 6 : 5) * bands;
+    // Band-phases: the albedo's prefilter, then a mean and two regressions
+    // of two phases; apart, a mean and one regression for each part.
+    run.steps = (apart ? 7 : 6) * bands;
     const FilterParams params{kColourK * std::max(0.0f, options.strength), std::max(0, options.window_radius),
                               std::max(0, options.patch_radius)};
     std::vector<float> fa(3 * size, 0.0f), fb(3 * size, 0.0f);
     bool complete = false;
     tbb::task_arena arena(options.threads > 0 ? options.threads : tbb::task_arena::automatic);
     arena.execute([&] {
+        if (!prefilter_albedo(sums, img, run)) return;
         if (!apart) {
             complete = filter_signal(img, nullptr, params, true, run, fa, fb);
             return;

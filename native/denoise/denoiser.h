@@ -9,6 +9,10 @@
 // direct light:
 //   1. Demodulate: each half's mean radiance is divided by its own albedo,
 //      so textures are never blurred (they come back with the albedo).
+//      The mean albedo that the regressions fit against and that step 5
+//      remodulates with is first prefiltered by non-local means in units of
+//      its own variance: where a pixel's samples see two surfaces (a light's
+//      outline, a silhouette) it carries their coverage noise.
 //   2. Cross-filter: each half is filtered with weights computed from the
 //      OTHER half, so the weights are independent of the noise they average.
 //      A weight is exp(-(colour patch distance + normal distance + depth
@@ -28,8 +32,9 @@
 //   and the rest of the radiance go through steps 1-4 apart (one candidate
 //   each, with the outliers of their sum) and are added: its sharp detail
 //   would otherwise keep the weights from averaging the indirect noise.
-//   5. Recombine the filtered halves as the film combines the raw ones, and
-//      estimate the result's error from their difference exactly as
+//   5. Remodulate with the prefiltered albedo, recombine the filtered halves
+//      as the film combines the raw ones, and estimate the result's error
+//      from their difference exactly as
 //      Film::relative_rmse_estimate() does for the raw image. That estimate
 //      sees the filter's remaining noise, not its bias (blur): it is a lower
 //      bound in spirit, measured against references in tests/.
