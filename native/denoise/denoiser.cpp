@@ -736,8 +736,9 @@ bool for_each_band(const Image& img, Run& run, Work&& band_work) {
 // variance, and the regressions and the remodulation use the result: along
 // an edge, pixels whose albedo differs only by noise are averaged, while a
 // real difference (a texture, the other side of the edge) weighs
-// exp(-difference^2 / variance). An 11 x 11 window with 5 x 5 patches was
-// no worse than without on any of the 12 scenes measured, where 15 x 15
+// exp(-difference^2 / variance). With an 11 x 11 window and 5 x 5 patches
+// the emissive mesh's error fell by 15 %, the Cornell boxes' by 4-7 %, and
+// no other scene of the 12 measured moved by more than 1.2 %, while 15 x 15
 // windows or k = 2 blurred Sponza's textures (docs/results/denoise.md,
 // fifteenth session).
 constexpr int kAlbedoWindowRadius = 5;
