@@ -1129,4 +1129,25 @@ DenoiseResult denoise(const Film& film, const DenoiseOptions& options, const Den
     return combine(img, fa, fb);
 }
 
+uint64_t denoise_working_bytes(int width, int height, const DenoiseOptions& options) {
+    const uint64_t pixels = uint64_t(std::max(width, 0)) * uint64_t(std::max(height, 0));
+    // Live at the peak, the second candidate's regression: the image's
+    // planes, its modulation and sample counts (5), the filtered sums fa and
+    // fb (6), the outliers' scales (2) and one part's sums (7) when filtered
+    // apart, the first pass's and both candidates' halves (3 x 6), that
+    // regression's fits (2 x 3 x kRegressors), and the result (3).
+    constexpr uint64_t kFloatsPerPixel = kPlaneCount + 5 + 6 + 2 + 7 + 3 * 6 + 2 * 3 * kRegressors + 3;
+    // Per thread, a band's weights for every window offset, both halves,
+    // and its patch distances' scratch (8 rows of the band plus the patch's).
+    const uint64_t side = uint64_t(2 * std::max(0, options.window_radius) + 1);
+    const uint64_t band_floats =
+        uint64_t(std::max(width, 0)) * (2 * side * side * kBandRows +
+                                         8 * uint64_t(kBandRows + 2 * std::max(0, options.patch_radius)));
+    const uint64_t threads =
+        options.threads > 0 ? uint64_t(options.threads) : uint64_t(tbb::this_task_arena::max_concurrency());
+    // A quarter more for the allocator's slack: measured, the peak came to
+    // 0.92 of the sum (640 x 480 and 1024 x 768, 2 threads).
+    return (pixels * kFloatsPerPixel + threads * band_floats) * sizeof(float) * 5 / 4 + pixels;  // + the outliers' flags
+}
+
 }  // namespace coherent

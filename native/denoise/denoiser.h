@@ -75,4 +75,11 @@ using DenoiseProgress = std::function<bool(double fraction)>;
 // Pixels without samples stay 0. Never produces NaN or Inf.
 DenoiseResult denoise(const Film& film, const DenoiseOptions& options = {}, const DenoiseProgress& progress = {});
 
+// The most denoise() holds at once beside the film, in bytes, for a film of
+// width x height on `threads` threads (0: all cores): its planes per pixel
+// and each thread's band of weights. The memory check's estimate
+// (render/memory_budget.h); tests/native/test_memory_budget.cpp measures it
+// against the peak of a real denoise.
+uint64_t denoise_working_bytes(int width, int height, const DenoiseOptions& options = {});
+
 }  // namespace coherent

@@ -67,7 +67,7 @@ void Film::clear() {
 
 void Film::enable_cryptomatte(uint32_t types, int levels) {
     crypto_types_ = types;
-    crypto_slots_ = types ? 2 * ((std::clamp(levels, 1, 16) + 1) / 2) : 0;
+    crypto_slots_ = types ? cryptomatte_slots(levels) : 0;
     const size_t n = size_t(width_) * size_t(height_);
     for (int t = 0; t < kCryptoTypeCount; ++t) {
         if (types & (1u << t)) crypto_[t].assign(n * size_t(crypto_slots_) * 2, 0.0f);
@@ -96,14 +96,43 @@ void Film::resolve_cryptomatte(CryptoType t, int layer, float* out) const {
 }
 
 
-void Film::enable_passes(PassMask mask) {
-    // Cycles divides Dir and Ind by Col: a lobe's Col is kept whenever one of them is.
+PassMask Film::stored_passes(PassMask mask) {
     constexpr int kLobes[3] = {int(RenderPass::DiffuseDirect), int(RenderPass::GlossyDirect),
                                int(RenderPass::TransmissionDirect)};
     for (int first : kLobes)
         if (mask & ((PassMask(1) << first) | (PassMask(1) << (first + 1)))) mask |= PassMask(1) << (first + 2);
+    return mask & ((PassMask(1) << kRenderPassCount) - 1);  // pass bits only
+}
+
+uint64_t Film::bytes_per_pixel(bool heatmaps, bool denoising_features, bool denoised, PassMask passes,
+                               uint32_t cryptomatte_types, int cryptomatte_levels) {
+    // RGBA, depth, normal, count, hits, odd-pass RGB and count.
+    uint64_t floats = 4 + 1 + 3 + 1 + 1 + 3 + 1;
+    if (heatmaps) floats += 2 + 1;
+    if (denoising_features) floats += 6 * 3 + 1;  // albedo, normal, direct (each with its odd half), depth
+    if (denoised) floats += 3;
+    const PassMask stored = stored_passes(passes);
+    for (int p = 0; p < kRenderPassCount; ++p)
+        if (stored & pass_bit(RenderPass(p))) floats += uint64_t(render_pass_info(RenderPass(p)).channels);
+    for (int t = 0; t < kCryptoTypeCount; ++t)
+        if (cryptomatte_types & (1u << t)) floats += 2 * uint64_t(cryptomatte_slots(cryptomatte_levels));
+    static_assert(sizeof(float) == sizeof(uint32_t));
+    return floats * sizeof(float);
+}
+
+uint64_t Film::bytes() const {
+    uint64_t floats = rgba_.size() + depth_.size() + normal_.size() + count_.size() + hits_.size() + rgb_odd_.size() +
+                      count_odd_.size() + heat_.size() + heat_count_.size() + denoised_.size();
+    for (const std::vector<float>* b : {&albedo_, &albedo_odd_, &dnormal_, &dnormal_odd_, &ddepth_, &direct_, &direct_odd_})
+        floats += b->size();
+    for (const std::vector<float>& b : pass_sums_) floats += b.size();
+    for (const std::vector<float>& b : crypto_) floats += b.size();
+    return floats * sizeof(float);
+}
+
+void Film::enable_passes(PassMask mask) {
+    mask = stored_passes(mask);
     const size_t n = size_t(width_) * size_t(height_);
-    mask &= (PassMask(1) << kRenderPassCount) - 1;  // pass bits only
     for (int p = 0; p < kRenderPassCount; ++p)
         if ((mask & pass_bit(RenderPass(p))) && !(passes_ & pass_bit(RenderPass(p))))
             pass_sums_[p].assign(n * size_t(render_pass_info(RenderPass(p)).channels), 0.0f);

@@ -2,6 +2,7 @@
 // front ends flip if their convention differs (Blender's is bottom-up).
 #pragma once
 
+#include <algorithm>
 #include <cstddef>
 #include <cstdint>
 #include <string>
@@ -170,7 +171,21 @@ public:
 
     void clear();
 
+    // What the film's buffers hold now, in bytes (every per-pixel array).
+    uint64_t bytes() const;
+    // What they will hold, per pixel, once enabled as given (the same rules
+    // as enable_*; `denoised`: with the denoiser's result). The memory
+    // check's estimate (render/memory_budget.h); tests compare it with bytes().
+    static uint64_t bytes_per_pixel(bool heatmaps, bool denoising_features, bool denoised, PassMask passes,
+                                    uint32_t cryptomatte_types, int cryptomatte_levels);
+
 private:
+    // Passes `mask` stores: Cycles divides Dir and Ind by Col, so a lobe's
+    // Col comes with either of them.
+    static PassMask stored_passes(PassMask mask);
+    // (id, weight) slots per pixel and Cryptomatte type for `levels` ranks.
+    static int cryptomatte_slots(int levels) { return 2 * ((std::clamp(levels, 1, 16) + 1) / 2); }
+
     // Resolves pass t (is_render_pass) of pixel i into out (its channels).
     void resolve_render_pass(PassType t, size_t i, float* out) const;
 

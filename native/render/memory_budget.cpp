@@ -10,6 +10,8 @@
 #include <limits>
 #include <sstream>
 
+#include "../denoise/denoiser.h"
+#include "../film/film.h"
 #include "../scene/scene.h"
 #include "settings.h"
 
@@ -152,11 +154,10 @@ static size_t unique_triangle_count(const Scene& s) {
     return n + s.instances.size();
 }
 
-uint64_t film_bytes(uint64_t pixels, bool heatmaps) {
-    // film.h: RGBA, depth, normal, count, hits, odd-pass RGB and count
-    // (16 + 4 + 12 + 4 + 4 + 12 + 4 bytes); heatmaps: two sums and a count.
-    constexpr uint64_t kPerPixel = 56, kHeatmapPerPixel = 12;
-    return pixels * (kPerPixel + (heatmaps ? kHeatmapPerPixel : 0));
+uint64_t film_bytes(const RenderSettings& settings) {
+    const uint64_t pixels = uint64_t(settings.border_width()) * uint64_t(settings.border_height());
+    return pixels * Film::bytes_per_pixel(settings.heatmaps, settings.denoising_features(), settings.denoise,
+                                          PassMask(settings.passes), settings.cryptomatte, settings.cryptomatte_levels);
 }
 
 uint64_t bvh_build_bytes_estimate(size_t triangles) {
@@ -174,7 +175,12 @@ MemoryEstimate estimate_render_memory(const Scene& scene, const RenderSettings& 
     e.triangles = unique_triangle_count(scene);
     e.scene = scene_bytes(scene);
     e.bvh = builds_bvh ? bvh_build_bytes_estimate(e.triangles) : 0;
-    e.film = film_bytes(uint64_t(settings.border_width()) * uint64_t(settings.border_height()), settings.heatmaps);
+    e.film = film_bytes(settings);
+    if (settings.denoise) {
+        DenoiseOptions options;
+        options.threads = settings.threads;
+        e.denoiser = denoise_working_bytes(settings.border_width(), settings.border_height(), options);
+    }
     return e;
 }
 
@@ -184,12 +190,13 @@ void check_memory(const MemoryEstimate& e, const MemoryLimit& limit) {
     if (needed <= limit.bytes) return;
     std::string parts = "BVH " + format_bytes(e.bvh) + " for " + std::to_string(e.triangles) + " triangles, film " +
                         format_bytes(e.film);
+    if (e.denoiser) parts += ", denoiser " + format_bytes(e.denoiser);
     parts += limit.whole_render ? ", scene " + format_bytes(e.scene) : "; the scene already holds " + format_bytes(e.scene);
     const std::string remedy = limit.whole_render ? "raise the limit or reduce" : "reduce";
     throw OutOfMemoryBudget("not enough memory for this render: it needs about " + format_bytes(needed) + " (" +
                             parts + "), more than " + limit.source + ", " + format_bytes(limit.bytes) + "; " +
                             remedy + " the triangle count (instances instead of copies, lower subdivision) or the "
-                            "image size");
+                            "image size" + (e.denoiser ? std::string(", or render without denoising") : std::string()));
 }
 
 uint64_t peak_rss_bytes() { return proc_kib_field("/proc/self/status", "VmHWM"); }

@@ -44,8 +44,9 @@ std::string format_bytes(uint64_t bytes);
 uint64_t scene_bytes(const Scene& scene);
 // The instances' records: transforms, material slots, shutter-close transforms.
 uint64_t instance_record_bytes(const Scene& scene);
-// The film's per-pixel accumulators (film.h's layout).
-uint64_t film_bytes(uint64_t pixels, bool heatmaps);
+// The film's per-pixel buffers as `settings` enable them (Film::bytes_per_pixel):
+// heatmaps, denoising features and the denoised image, passes, Cryptomatte.
+uint64_t film_bytes(const RenderSettings& settings);
 // The most a BVH build over `triangles` holds at once: the finished BVH
 // (nodes, leaf order, 8- and 4-wide layouts, triangle packs, with the
 // spatial-split duplicates) plus the build's temporaries (boxes, centroids,
@@ -58,12 +59,14 @@ struct MemoryEstimate {
     uint64_t scene = 0;  // already allocated
     uint64_t bvh = 0;    // still to allocate (0 when a built BVH is reused)
     uint64_t film = 0;   // still to allocate
+    uint64_t denoiser = 0;  // the denoiser's working memory at the end (0 without denoising)
     size_t triangles = 0;
-    uint64_t to_allocate() const { return bvh + film; }
-    uint64_t total() const { return scene + bvh + film; }
+    uint64_t to_allocate() const { return bvh + film + denoiser; }
+    uint64_t total() const { return scene + bvh + film + denoiser; }
 };
-// A render of `scene` with `settings` (border, heatmaps): the scene as it is,
-// the BVH build's peak unless a built BVH is reused, and the film.
+// A render of `scene` with `settings` (border, buffers, denoising): the scene
+// as it is, the BVH build's peak unless a built BVH is reused, the film, and
+// the denoiser's working memory.
 MemoryEstimate estimate_render_memory(const Scene& scene, const RenderSettings& settings, bool builds_bvh);
 // Throws OutOfMemoryBudget when the estimate does not fit the limit.
 void check_memory(const MemoryEstimate& estimate, const MemoryLimit& limit);

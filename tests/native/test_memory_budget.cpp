@@ -4,10 +4,14 @@
 // bounds what a build really holds, and the statistics report sane sizes.
 #include <gtest/gtest.h>
 
+#include <cstdio>
 #include <cstdlib>
 #include <fstream>
 #include <string>
+#include <utility>
+#include <vector>
 
+#include "denoise/denoiser.h"
 #include "render/memory_budget.h"
 #include "render/renderer.h"
 #include "test_render_helpers.h"
@@ -157,13 +161,77 @@ TEST(MemoryBudget, RenderStatsReportTheSizes) {
     EXPECT_EQ(m.bvh_bytes, r.bvh().build_stats().bytes);
     // At least the vertices, 36 bytes per triangle.
     EXPECT_GE(m.scene_bytes, scene.triangle_count() * 3 * sizeof(Vec3f));
-    EXPECT_EQ(m.film_bytes, film_bytes(32 * 24, false));
+    EXPECT_EQ(m.film_bytes, film_bytes(small_render()));
+    EXPECT_EQ(m.film_bytes, r.film().bytes());
     ASSERT_TRUE(m.bytes_per_triangle());
     EXPECT_GT(*m.bytes_per_triangle(), 36.0);
     EXPECT_LT(*m.bytes_per_triangle(), 2000.0);
     EXPECT_GE(m.estimate_bytes, m.scene_bytes + m.bvh_bytes + m.film_bytes);
     EXPECT_GT(m.limit_bytes, 0u);  // MemAvailable is known on Linux
     EXPECT_GE(m.peak_rss_bytes, m.scene_bytes + m.bvh_bytes);
+}
+
+// The film's estimate is what the film then holds, byte for byte, whatever
+// its settings enable: the check sees the passes, the denoising features
+// and the denoised image as well as Combined.
+TEST(MemoryBudget, FilmEstimateIsWhatTheFilmHolds) {
+    const Scene scene = sphere_on_floor_scene();
+    std::vector<std::pair<const char*, RenderSettings>> cases;
+    RenderSettings rs = small_render();
+    cases.emplace_back("plain", rs);
+    rs.heatmaps = true;
+    cases.emplace_back("heatmaps", rs);
+    rs = small_render();
+    rs.denoise = true;
+    cases.emplace_back("denoised", rs);
+    rs = small_render();
+    rs.denoising_data = true;
+    rs.passes = pass_mask_from_names({"diffdir", "glossind", "mist", "uv", "vector"});  // DiffCol, GlossCol come too
+    cases.emplace_back("features and passes", rs);
+    rs = small_render();
+    rs.cryptomatte = (1u << int(CryptoType::Object)) | (1u << int(CryptoType::Material));
+    rs.cryptomatte_levels = 5;  // rounded up to 6 slots
+    cases.emplace_back("cryptomatte", rs);
+    uint64_t plain = 0;
+    for (const auto& [name, settings] : cases) {
+        Renderer r(scene, settings);
+        ASSERT_TRUE(r.render()) << name;
+        EXPECT_EQ(film_bytes(settings), r.film().bytes()) << name;
+        EXPECT_EQ(r.stats().memory.film_bytes, r.film().bytes()) << name;
+        if (!plain) plain = r.film().bytes();
+        else EXPECT_GT(r.film().bytes(), plain) << name;
+    }
+}
+
+// The denoiser's estimate bounds what a real denoise takes at its peak (the
+// resident-set high-water mark's growth, reset first as for the BVH build
+// above) and is not far above it, or the check would refuse renders that fit.
+TEST(MemoryBudget, DenoiserEstimateBoundsThePeakOfARealDenoise) {
+    constexpr int kWidth = 640, kHeight = 480;
+    Film film(kWidth, kHeight);
+    film.enable_denoising_features();
+    for (uint32_t pass = 0; pass < 2; ++pass)
+        for (int y = 0; y < kHeight; ++y)
+            for (int x = 0; x < kWidth; ++x) {
+                const Vec3f c(float((x * 7 + y * 13 + int(pass) * 5) % 17) / 17.0f);
+                film.add_sample(x, y, c, 1.0f, 1.0f, Vec3f(0.0f, 0.0f, -1.0f), pass);
+                film.add_denoising_features(x, y, Vec3f(0.5f), Vec3f(0.0f, 0.0f, -1.0f), 1.0f, pass);
+                film.add_direct_light(x, y, c * 0.5f, pass);
+            }
+    {
+        std::ofstream reset("/proc/self/clear_refs");
+        reset << "5";
+        ASSERT_TRUE(reset.good()) << "cannot reset the peak RSS through /proc/self/clear_refs";
+    }
+    const uint64_t before = status_bytes("VmRSS");
+    const DenoiseResult d = denoise(film);
+    ASSERT_EQ(d.rgb.size(), size_t(3 * kWidth * kHeight));
+    const uint64_t peak = status_bytes("VmHWM") - before;
+    const uint64_t estimate = denoise_working_bytes(kWidth, kHeight);
+    std::printf("denoise %dx%d: peak RSS growth %.1f MiB, estimate %.1f MiB\n", kWidth, kHeight,
+                double(peak) / (1 << 20), double(estimate) / (1 << 20));
+    EXPECT_GE(estimate, peak);
+    EXPECT_LE(estimate, 3 * peak);
 }
 
 }  // namespace
