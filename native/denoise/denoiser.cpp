@@ -96,6 +96,12 @@ inline float exp_negative(float x) {
     return p * std::bit_cast<float>((int32_t(whole) + 127) << 23);
 }
 
+// Channel c's even-half mean minus its odd-half mean, from the sums over
+// all samples and over the odd ones (both halves non-empty).
+inline float halves_difference(const float* sum, const float* sum_odd, uint32_t n_even, uint32_t n_odd, int c) {
+    return (sum[c] - sum_odd[c]) / float(n_even) - sum_odd[c] / float(n_odd);
+}
+
 // Variance of a mean of n samples (a feature's or the radiance's) from the
 // difference of its two halves' sums: |even mean - odd mean|^2 n_e n_o / n^2
 // (film.h), summed over channels.
@@ -104,7 +110,7 @@ float halves_variance(const float* sum, const float* sum_odd, uint32_t n, uint32
     if (!n_odd || !n_even) return 0.0f;
     float v = 0.0f;
     for (int c = 0; c < 3; ++c) {
-        const float d = (sum[c] - sum_odd[c]) / float(n_even) - sum_odd[c] / float(n_odd);
+        const float d = halves_difference(sum, sum_odd, n_even, n_odd, c);
         v += d * d;
     }
     return v * float(n_even) * float(n_odd) / (float(n) * float(n));
@@ -810,9 +816,9 @@ bool prefilter_albedo(const Film::Sums& s, Image& img, Run& run) {
     if (!s.albedo) return true;
     const int w = img.width, h = img.height;
     const size_t size = size_t(w) * size_t(h);
-    // Each channel's variance of the mean from its halves (halves_variance
-    // per channel), then averaged over 3 x 3: one pixel's is a single
-    // chi-square draw.
+    // Each channel's variance of the mean from its halves (halves_variance's
+    // terms), then averaged over 3 x 3: one pixel's is a single chi-square
+    // draw.
     std::vector<float> var(3 * size, 0.0f);
     std::vector<uint8_t> noisy(size, 0);
     for (size_t i = 0; i < size; ++i) {
@@ -820,8 +826,7 @@ bool prefilter_albedo(const Film::Sums& s, Image& img, Run& run) {
         if (!n_odd || !n_even) continue;
         const float scale = float(n_even) * float(n_odd) / (float(n) * float(n));
         for (int c = 0; c < 3; ++c) {
-            const float d = (s.albedo[3 * i + size_t(c)] - s.albedo_odd[3 * i + size_t(c)]) / float(n_even) -
-                            s.albedo_odd[3 * i + size_t(c)] / float(n_odd);
+            const float d = halves_difference(s.albedo + 3 * i, s.albedo_odd + 3 * i, n_even, n_odd, c);
             var[size_t(c) * size + i] = d * d * scale;
             // Rounding alone (sums of equal albedos over unequal counts) differs by ~1e-7.
             if (std::abs(d) > 1e-5f * std::abs(img.planes[kAlbedo + c][i]) + 1e-7f) noisy[i] = 1;

@@ -126,6 +126,26 @@ TEST(MemoryBudget, AMalformedLimitIsAnErrorNamingTheVariable) {
     }
 }
 
+// Resets the resident-set high-water mark to the current RSS (clear_refs 5,
+// Linux 4.0+) and returns that RSS, so that VmHWM - it is what runs next
+// takes at its peak; 0 (after a failure) when it could not be reset.
+uint64_t reset_peak_rss() {
+    {
+        std::ofstream reset("/proc/self/clear_refs");
+        reset << "5";
+        if (!reset.good()) {
+            ADD_FAILURE() << "cannot reset the peak RSS through /proc/self/clear_refs";
+            return 0;
+        }
+    }
+    const uint64_t before = status_bytes("VmRSS");
+    if (status_bytes("VmHWM") > before + (1u << 20)) {
+        ADD_FAILURE() << "the peak RSS was not reset";
+        return 0;
+    }
+    return before;
+}
+
 // The estimate must bound the memory a build really takes at its peak, or
 // the check would let through renders that then fail in the build. Measured
 // as the growth of the resident-set high-water mark over the build, after
@@ -135,13 +155,8 @@ TEST(MemoryBudget, AMalformedLimitIsAnErrorNamingTheVariable) {
 TEST(MemoryBudget, BvhEstimateBoundsThePeakOfARealBuild) {
     constexpr size_t kTriangles = 60000;
     const std::vector<Vec3f> soup = random_soup(kTriangles, 7, 10.0f, 1.0f);
-    {
-        std::ofstream reset("/proc/self/clear_refs");
-        reset << "5";
-        ASSERT_TRUE(reset.good()) << "cannot reset the peak RSS through /proc/self/clear_refs";
-    }
-    const uint64_t before = status_bytes("VmRSS");
-    ASSERT_LE(status_bytes("VmHWM"), before + (1u << 20)) << "the peak RSS was not reset";
+    const uint64_t before = reset_peak_rss();
+    ASSERT_GT(before, 0u);
     Bvh bvh;
     bvh.build(soup);
     const uint64_t peak = status_bytes("VmHWM") - before;
@@ -218,12 +233,8 @@ TEST(MemoryBudget, DenoiserEstimateBoundsThePeakOfARealDenoise) {
                 film.add_denoising_features(x, y, Vec3f(0.5f), Vec3f(0.0f, 0.0f, -1.0f), 1.0f, pass);
                 film.add_direct_light(x, y, c * 0.5f, pass);
             }
-    {
-        std::ofstream reset("/proc/self/clear_refs");
-        reset << "5";
-        ASSERT_TRUE(reset.good()) << "cannot reset the peak RSS through /proc/self/clear_refs";
-    }
-    const uint64_t before = status_bytes("VmRSS");
+    const uint64_t before = reset_peak_rss();
+    ASSERT_GT(before, 0u);
     const DenoiseResult d = denoise(film);
     ASSERT_EQ(d.rgb.size(), size_t(3 * kWidth * kHeight));
     const uint64_t peak = status_bytes("VmHWM") - before;
