@@ -529,10 +529,40 @@ void evaluate_row(const std::vector<float>& beta, ptrdiff_t q, ptrdiff_t o, int 
     for (int x = 0; x < count; ++x) sum_w[x] += w[x];
 }
 
+// A window offset d: the pair (p, p + d).
+struct Offset {
+    int dx, dy;
+};
+
+// The offsets beyond the dense window are those whose coordinates are both
+// multiples of this (ring_offsets).
+constexpr int kRingStride = 4;
+
+// Every offset of the dense (2 window + 1)^2 square and, beyond it out to
+// `ring`, those on the kRingStride grid: with window 4 and ring 12, 81 + 40
+// pairs where a dense 25 x 25 window would weigh 625.
+std::vector<Offset> window_offsets(int window, int ring) {
+    const int reach = std::max(window, ring);
+    std::vector<Offset> offsets;
+    for (int dy = -reach; dy <= reach; ++dy)
+        for (int dx = -reach; dx <= reach; ++dx) {
+            const bool dense = std::abs(dx) <= window && std::abs(dy) <= window;
+            if (dense || (dx % kRingStride == 0 && dy % kRingStride == 0)) offsets.push_back({dx, dy});
+        }
+    return offsets;
+}
+
 struct FilterParams {
     float k;      // colour tolerance
-    int window;   // radius
+    int window;   // radius of the dense window
     int patch;    // radius
+    int ring;     // radius of the sparse ring (no ring where <= window)
+    std::vector<Offset> offsets;  // window_offsets(window, ring)
+    int reach;    // the largest |dx| or |dy| of offsets
+
+    FilterParams(float k_, int window_, int patch_, int ring_ = 0)
+        : k(k_), window(window_), patch(patch_), ring(ring_), offsets(window_offsets(window_, ring_)),
+          reach(std::max(window_, ring_)) {}
 };
 
 // Shared by the bands of one denoise(): cancelling and the progress report.
@@ -562,30 +592,26 @@ struct Run {
 };
 
 // The weights of every pair (p, p + d) of band [y0, y1) and window offset
-// d, both halves: weights[half][(offset * rows + y - y0) * width + x], 0
-// where p + d is outside. Stored, so that the fits then run row by row
+// d = fp.offsets[k], both halves: weights[half][(k * rows + y - y0) * width
+// + x], 0 where p + d is outside. Stored, so that the fits then run row by row
 // over all offsets with one row's normal equations in cache.
 bool band_weights(const Image& img, const FilterParams& fp, int y0, int y1, const Run& run,
                   std::vector<float>* weights) {
-    const int w = img.width, h = img.height, r = fp.window, side = 2 * r + 1;
+    const int w = img.width, h = img.height;
     const size_t rows = size_t(y1 - y0), plane = rows * size_t(w);
-    for (int half = 0; half < 2; ++half) weights[half].assign(size_t(side * side) * plane, 0.0f);
+    for (int half = 0; half < 2; ++half) weights[half].assign(fp.offsets.size() * plane, 0.0f);
     PatchDistances dist;
-    for (int iy = 0; iy < side; ++iy) {
+    for (size_t k = 0; k < fp.offsets.size(); ++k) {
         if (run.stopped()) return false;
-        const int dy = iy - r;
-        for (int ix = 0; ix < side; ++ix) {
-            const int dx = ix - r;
-            patch_distances(img, y0, y1, dx, dy, fp.patch, fp.k * fp.k, dist);
-            const size_t offset = size_t(iy * side + ix) * plane;
-            const int x0 = std::max(0, -dx), x1 = std::min(w, w - dx);
-            for (int y = y0; y < y1; ++y) {
-                if (y + dy < 0 || y + dy >= h) continue;
-                const ptrdiff_t p = ptrdiff_t(y) * w + x0, q = ptrdiff_t(y + dy) * w + dx + x0;
-                const ptrdiff_t o = ptrdiff_t(y - y0) * w + x0;
-                row_weights(img, p, q, dist.dist_a.data() + o, dist.dist_b.data() + o, x1 - x0,
-                            weights[0].data() + offset + size_t(o), weights[1].data() + offset + size_t(o));
-            }
+        const auto [dx, dy] = fp.offsets[k];
+        patch_distances(img, y0, y1, dx, dy, fp.patch, fp.k * fp.k, dist);
+        const int x0 = std::max(0, -dx), x1 = std::min(w, w - dx);
+        for (int y = y0; y < y1; ++y) {
+            if (y + dy < 0 || y + dy >= h) continue;
+            const ptrdiff_t p = ptrdiff_t(y) * w + x0, q = ptrdiff_t(y + dy) * w + dx + x0;
+            const ptrdiff_t o = ptrdiff_t(y - y0) * w + x0;
+            row_weights(img, p, q, dist.dist_a.data() + o, dist.dist_b.data() + o, x1 - x0,
+                        weights[0].data() + k * plane + size_t(o), weights[1].data() + k * plane + size_t(o));
         }
     }
     return true;
@@ -597,21 +623,18 @@ bool band_weights(const Image& img, const FilterParams& fp, int y0, int y1, cons
 template <class Visit>
 void for_each_offset(const Image& img, const FilterParams& fp, int y, int y0, int y1,
                      const std::vector<float>* weights, RowScratch& row, Visit&& visit) {
-    const int w = img.width, h = img.height, r = fp.window, side = 2 * r + 1;
-    const float inv_r = r > 0 ? 1.0f / float(r) : 0.0f;
+    const int w = img.width, h = img.height;
+    const float inv_r = fp.reach > 0 ? 1.0f / float(fp.reach) : 0.0f;
     const size_t plane = size_t(y1 - y0) * size_t(w);
-    for (int iy = 0; iy < side; ++iy) {
-        const int dy = iy - r;
+    for (size_t k = 0; k < fp.offsets.size(); ++k) {
+        const auto [dx, dy] = fp.offsets[k];
         if (y + dy < 0 || y + dy >= h) continue;
-        for (int ix = 0; ix < side; ++ix) {
-            const int dx = ix - r;
-            const int x0 = std::max(0, -dx), x1 = std::min(w, w - dx);
-            const ptrdiff_t p = ptrdiff_t(y) * w + x0, q = ptrdiff_t(y + dy) * w + dx + x0;
-            const size_t o = size_t(iy * side + ix) * plane + size_t(y - y0) * size_t(w) + size_t(x0);
-            row.weight[0] = weights[0].data() + o, row.weight[1] = weights[1].data() + o;
-            row_regressors(img, p, q, x1 - x0, float(dx) * inv_r, float(dy) * inv_r, row);
-            visit(q, x0, x1 - x0, row);
-        }
+        const int x0 = std::max(0, -dx), x1 = std::min(w, w - dx);
+        const ptrdiff_t p = ptrdiff_t(y) * w + x0, q = ptrdiff_t(y + dy) * w + dx + x0;
+        const size_t o = k * plane + size_t(y - y0) * size_t(w) + size_t(x0);
+        row.weight[0] = weights[0].data() + o, row.weight[1] = weights[1].data() + o;
+        row_regressors(img, p, q, x1 - x0, float(dx) * inv_r, float(dy) * inv_r, row);
+        visit(q, x0, x1 - x0, row);
     }
 }
 
@@ -681,27 +704,25 @@ bool mean_band(const Image& img, const FilterParams& fp, int y0, int y1, const R
     std::vector<float> weights[2];
     if (!band_weights(img, fp, y0, y1, run, weights)) return false;
     std::vector<float> sums[2][4];  // of one row
-    const int r = fp.window, side = 2 * r + 1;
     const size_t plane = size_t(y1 - y0) * w;
     for (int y = y0; y < y1; ++y) {
         for (auto& half : sums)
             for (auto& v : half) v.assign(w, 0.0f);
-        for (int dy = -r; dy <= r; ++dy) {
+        for (size_t k = 0; k < fp.offsets.size(); ++k) {
+            const auto [dx, dy] = fp.offsets[k];
             if (y + dy < 0 || y + dy >= img.height) continue;
-            for (int dx = -r; dx <= r; ++dx) {
-                const int x0 = std::max(0, -dx), count = std::min(img.width, img.width - dx) - x0;
-                const ptrdiff_t q = ptrdiff_t(y + dy) * img.width + dx + x0;
-                const size_t o = size_t((dy + r) * side + dx + r) * plane + size_t(y - y0) * w + size_t(x0);
-                for (int half = 0; half < 2; ++half) {
-                    const float* __restrict wt = weights[half].data() + o;
-                    for (int c = 0; c < 3; ++c) {
-                        const float* __restrict v = img.plane((half ? kB : kA) + c) + q;
-                        float* __restrict acc = sums[half][c].data() + x0;
-                        for (int x = 0; x < count; ++x) acc[x] += wt[x] * v[x];
-                    }
-                    float* __restrict acc = sums[half][3].data() + x0;
-                    for (int x = 0; x < count; ++x) acc[x] += wt[x];
+            const int x0 = std::max(0, -dx), count = std::min(img.width, img.width - dx) - x0;
+            const ptrdiff_t q = ptrdiff_t(y + dy) * img.width + dx + x0;
+            const size_t o = k * plane + size_t(y - y0) * w + size_t(x0);
+            for (int half = 0; half < 2; ++half) {
+                const float* __restrict wt = weights[half].data() + o;
+                for (int c = 0; c < 3; ++c) {
+                    const float* __restrict v = img.plane((half ? kB : kA) + c) + q;
+                    float* __restrict acc = sums[half][c].data() + x0;
+                    for (int x = 0; x < count; ++x) acc[x] += wt[x] * v[x];
                 }
+                float* __restrict acc = sums[half][3].data() + x0;
+                for (int x = 0; x < count; ++x) acc[x] += wt[x];
             }
         }
         for (int half = 0; half < 2; ++half)
@@ -1012,20 +1033,19 @@ bool filter_signal(Image& img, const Outliers* outliers, const FilterParams& par
     // measured no better (docs/results/denoise.md) at 3x the cost.
     Halves first, second, third, selected;
     allocate_halves(size, first);
-    FilterParams guide = params;
-    guide.window = std::min(params.window, kGuideWindowRadius);
+    const FilterParams guide(params.k, std::min(params.window, kGuideWindowRadius), params.patch);
     if (!for_each_band(img, run, [&](int y0, int y1) { return mean_band(img, guide, y0, y1, run, first); }))
         return false;
     // Second pass: regressions of the raw halves, with weights from the
     // first pass's output, whose patches are far less noisy; two candidates
     // (patches 7 x 7 and 3 x 3: the smaller follows finer detail, the larger
-    // averages more), selected per pixel, or the 7 x 7 alone.
+    // averages more; both over params' ring where it has one), selected per
+    // pixel, or the 7 x 7 alone.
     set_guides(img, first);
     estimate_variances(img, kGuideA, kGuideB, kGuideVarA, kGuideVarB, false);
     if (!regression_filter(img, params, run, second)) return false;
     if (both_candidates) {
-        FilterParams small_patch = params;
-        small_patch.patch = std::min(params.patch, 1);
+        const FilterParams small_patch(params.k, params.window, std::min(params.patch, 1), params.ring);
         if (!regression_filter(img, small_patch, run, third)) return false;
         select_candidates(img, {&second, &third}, selected);
     } else {
@@ -1089,6 +1109,16 @@ bool filter_direct_apart(const Film::Sums& s, size_t size) {
            light_direct >= kSplitLightShare * light_all;
 }
 
+// DenoiseOptions::ring_radius, but at most a sixteenth of the shorter side:
+// on a small image the ring spans a large part of the frame, where light is
+// no longer smooth, and it measured no gain (the fixture's Cornell box at
+// 64 x 64, 16 spp, three seeds: 0.1767 without, 0.1771 with a radius of 12),
+// while the error estimate, which sees the noise and not the bias, fell
+// further below the true error (0.086 against 0.172).
+int ring_radius(int width, int height, const DenoiseOptions& options) {
+    return std::min(std::max(0, options.ring_radius), std::min(width, height) / 16);
+}
+
 }  // namespace
 
 DenoiseResult denoise(const Film& film, const DenoiseOptions& options, const DenoiseProgress& progress) {
@@ -1105,15 +1135,21 @@ DenoiseResult denoise(const Film& film, const DenoiseOptions& options, const Den
     // Band-phases: the albedo's prefilter, then a mean and two regressions
     // of two phases; apart, a mean and one regression for each part.
     run.steps = (apart ? 7 : 6) * bands;
-    const FilterParams params{kColourK * std::max(0.0f, options.strength), std::max(0, options.window_radius),
-                              std::max(0, options.patch_radius)};
+    const float k = kColourK * std::max(0.0f, options.strength);
+    const int window = std::max(0, options.window_radius), patch = std::max(0, options.patch_radius);
+    // The ring (DenoiseOptions::ring_radius) goes to the regressions that
+    // average smooth light: both candidates of the whole radiance and,
+    // filtered apart, the indirect rest. The direct light's
+    // detail is pixel-scale and its noise small: the ring measured no better
+    // there (docs/results/denoise.md, sixteenth session).
+    const FilterParams dense(k, window, patch), wide(k, window, patch, ring_radius(width, height, options));
     std::vector<float> fa(3 * size, 0.0f), fb(3 * size, 0.0f);
     bool complete = false;
     tbb::task_arena arena(options.threads > 0 ? options.threads : tbb::task_arena::automatic);
     arena.execute([&] {
         if (!prefilter_albedo(sums, img, run)) return;
         if (!apart) {
-            complete = filter_signal(img, nullptr, params, true, run, fa, fb);
+            complete = filter_signal(img, nullptr, wide, true, run, fa, fb);
             return;
         }
         // The outliers are the radiance's (where its sum is a firefly), as
@@ -1126,7 +1162,7 @@ DenoiseResult denoise(const Film& film, const DenoiseOptions& options, const Den
         for (const bool direct : {true, false}) {
             const PartSums part(sums, size, direct);
             read_part_halves(part.sums, img);
-            if (!filter_signal(img, &outliers, params, false, run, fa, fb)) return;
+            if (!filter_signal(img, &outliers, direct ? dense : wide, false, run, fa, fb)) return;
         }
         complete = true;
     });
@@ -1144,9 +1180,9 @@ uint64_t denoise_working_bytes(int width, int height, const DenoiseOptions& opti
     constexpr uint64_t kFloatsPerPixel = kPlaneCount + 5 + 6 + 2 + 7 + 3 * 6 + 2 * 3 * kRegressors + 3;
     // Per thread, a band's weights for every window offset, both halves,
     // and its patch distances' scratch (8 rows of the band plus the patch's).
-    const uint64_t side = uint64_t(2 * std::max(0, options.window_radius) + 1);
+    const uint64_t offsets = window_offsets(std::max(0, options.window_radius), ring_radius(width, height, options)).size();
     const uint64_t band_floats =
-        uint64_t(std::max(width, 0)) * (2 * side * side * kBandRows +
+        uint64_t(std::max(width, 0)) * (2 * offsets * kBandRows +
                                          8 * uint64_t(kBandRows + 2 * std::max(0, options.patch_radius)));
     const uint64_t threads =
         options.threads > 0 ? uint64_t(options.threads) : uint64_t(tbb::this_task_arena::max_concurrency());

@@ -26,7 +26,9 @@
 //      its 9 x 9 window against 1, albedo and screen offset; every pixel's
 //      output averages the fits of all windows containing it (collaborative).
 //      Two candidates (7 x 7 and 3 x 3 patches) are selected per pixel by
-//      their error estimated from the other half.
+//      their error estimated from the other half. The 7 x 7-patch candidate
+//      and the indirect light (filtered apart) also weigh a sparse ring of
+//      pixels out to 25 x 25 (DenoiseOptions::ring_radius).
 //   Where the direct light (the film's add_direct_light: what reached the
 //   camera after at most one scattering) is less than half of the noise, it
 //   and the rest of the radiance go through steps 1-4 apart (one candidate
@@ -52,6 +54,12 @@ struct DenoiseOptions {
     // Scales the colour tolerance k: 0 keeps only pixels equal within noise.
     float strength = 1.0f;
     int window_radius = 4;  // regression window (2r+1)^2
+    // Beyond that window, the regressions of smooth light also weigh the
+    // pixels on a 4-pixel grid out to this radius (0 or <= window_radius:
+    // none; at most a sixteenth of the image's shorter side). What the dense
+    // window leaves is noise at scales of 4 to 32 pixels; a dense 25 x 25
+    // window would cost 7.7x the 9 x 9 one, the ring 1.5x.
+    int ring_radius = 12;
     int patch_radius = 3;   // patch (2f+1)^2 of the colour distance
     int threads = 0;        // 0 = all cores
     // Polled while filtering (null: none): once set, denoise() stops within
