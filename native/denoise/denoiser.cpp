@@ -535,7 +535,7 @@ struct Offset {
 };
 
 // The offsets beyond the dense window are those whose coordinates are both
-// multiples of this (ring_offsets).
+// multiples of this (window_offsets).
 constexpr int kRingStride = 4;
 
 // Every offset of the dense (2 window + 1)^2 square and, beyond it out to

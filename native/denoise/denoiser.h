@@ -26,9 +26,9 @@
 //      its 9 x 9 window against 1, albedo and screen offset; every pixel's
 //      output averages the fits of all windows containing it (collaborative).
 //      Two candidates (7 x 7 and 3 x 3 patches) are selected per pixel by
-//      their error estimated from the other half. The 7 x 7-patch candidate
-//      and the indirect light (filtered apart) also weigh a sparse ring of
-//      pixels out to 25 x 25 (DenoiseOptions::ring_radius).
+//      their error estimated from the other half. Both candidates, or the
+//      indirect light when filtered apart (below), also weigh a sparse ring
+//      of pixels out to 25 x 25 (DenoiseOptions::ring_radius).
 //   Where the direct light (the film's add_direct_light: what reached the
 //   camera after at most one scattering) is less than half of the noise, it
 //   and the rest of the radiance go through steps 1-4 apart (one candidate
