@@ -33,6 +33,40 @@ double kept_variance(const Film::Sums& s, size_t i) {
     return std::isfinite(v) ? v : 0.0;
 }
 
+// Per-sample variance of pixel (x, y) if an edge of the albedo crosses it,
+// judged from its 8 neighbours only: sum over channels of (the range of
+// their mean albedo x their mean illumination)^2. A pixel whose samples see
+// a fraction f of one side and 1 - f of the other has f (1 - f) times that.
+// kept_variance() misses it where the samples are stratified: each half's
+// few samples then see the edge in nearly the same proportion, so along an
+// axis-aligned edge the halves agree exactly in runs of pixels and
+// estimate no variance there at all, while the pixel's mean still carries
+// the coverage error that neither the denoiser (which takes the mixed
+// albedo as the truth) nor the neighbours can remove.
+double edge_variance(const Film::Sums& s, int w, int h, int x, int y) {
+    double lo[3] = {0.0, 0.0, 0.0}, hi[3] = {0.0, 0.0, 0.0}, illumination[3] = {0.0, 0.0, 0.0};
+    int count = 0;
+    for (int yy = std::max(0, y - 1); yy <= std::min(h - 1, y + 1); ++yy)
+        for (int xx = std::max(0, x - 1); xx <= std::min(w - 1, x + 1); ++xx) {
+            const size_t q = size_t(yy) * size_t(w) + size_t(xx);
+            if ((xx == x && yy == y) || s.count[q] == 0) continue;
+            const double n = s.count[q];
+            for (int c = 0; c < 3; ++c) {
+                const double a = s.albedo[3 * q + size_t(c)] / n;
+                lo[c] = count ? std::min(lo[c], a) : a;
+                hi[c] = count ? std::max(hi[c], a) : a;
+                illumination[c] += (s.rgba[4 * q + size_t(c)] / n) / (std::max(a, 0.0) + 0.01);
+            }
+            ++count;
+        }
+    double v = 0.0;
+    for (int c = 0; c < 3 && count; ++c) {
+        const double contrast = (hi[c] - lo[c]) * illumination[c] / count;
+        v += contrast * contrast;
+    }
+    return std::isfinite(v) ? v : 0.0;
+}
+
 }  // namespace
 
 std::vector<uint32_t> SampleDistribution::targets(const Film& film, int spp) {
@@ -44,6 +78,7 @@ std::vector<uint32_t> SampleDistribution::targets(const Film& film, int spp) {
     const Film::Sums s = film.sums();
     std::vector<double> variance(size);
     for (size_t i = 0; i < size; ++i) variance[i] = kept_variance(s, i);
+    const bool edges = s.albedo && std::min(w, h) >= kEdgeMinSide;
     // Each pixel judged by its neighbours only (the box, centre left out).
     std::vector<double> weight(size, 0.0);
     double total = 0.0;
@@ -55,7 +90,9 @@ std::vector<uint32_t> SampleDistribution::targets(const Film& film, int spp) {
                 for (int xx = std::max(0, x - kRadius); xx <= std::min(w - 1, x + kRadius); ++xx)
                     if (xx != x || yy != y) sum += variance[size_t(yy) * size_t(w) + size_t(xx)], ++count;
             const size_t i = size_t(y) * size_t(w) + size_t(x);
-            weight[i] = count ? std::sqrt(sum / count) : 0.0;
+            double v = count ? sum / count : 0.0;
+            if (edges) v += kEdgeVarianceShare * edge_variance(s, w, h, x, y);
+            weight[i] = std::sqrt(v);
             total += weight[i];
         }
     if (!(total > 0.0) || !std::isfinite(total)) return out;

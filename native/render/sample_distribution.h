@@ -19,10 +19,15 @@
 //                       + Var[colour] x kFilteredVarianceShare  (what the filter leaves of the rest)
 // and a pixel's extra samples are proportional to the square root of that
 // variance averaged over the pixels of the 5 x 5 box around it, itself left
-// out (the allocation that minimises the sum of per-pixel variances is
-// proportional to their standard deviations: Neyman). Leaving the pixel's
-// own samples out of its count keeps the count independent of them, so the
-// pixel's mean stays unbiased (as adaptive sampling, settings.h); that needs
+// out, plus kEdgeVarianceShare x the variance an edge would give it:
+//   sum over channels of (range of the albedo over its 8 neighbours
+//                         x their mean illumination)^2
+// (the halves' difference misses an edge's coverage where the samples are
+// stratified: sample_distribution.cpp, edge_variance). The allocation that
+// minimises the sum of per-pixel variances is proportional to their
+// standard deviations (Neyman). Leaving the pixel's own samples out of its
+// count keeps the count independent of them, so the pixel's mean stays
+// unbiased (as adaptive sampling, settings.h); that needs
 // pixels whose random numbers are independent: SPT only.
 #pragma once
 
@@ -45,6 +50,18 @@ struct SampleDistribution {
     // The share of a pixel's colour variance the filter leaves (1/16: the
     // variance reduction of its 9 x 9 regression on smooth lighting).
     static constexpr double kFilteredVarianceShare = 1.0 / 16.0;
+    // The share of an edge's variance (edge_variance: coverage f (1 - f) of
+    // the range between its neighbours, at most 1/4) counted for a pixel
+    // next to one. At 512 x 512 and 16 spp the error was flat from 0.02 to
+    // 0.1; from 0.25 on, smooth light lost too many samples (Sponza, the
+    // HDRI world: docs/results/denoise.md, seventeenth session).
+    static constexpr double kEdgeVarianceShare = 0.05;
+    // No edge term on images with a shorter side below this: the 3-pixel
+    // band it raises along every edge is then a large share of the image.
+    // On the fixture's Cornell box (seeds 7-9, 16 spp) it lowered the
+    // denoised error by 7-14 % at 128 x 128 but changed it by +3, +12 and
+    // -2 % at 64 x 64.
+    static constexpr int kEdgeMinSide = 128;
     // Half side of the box whose pixels (the centre left out) judge a pixel.
     static constexpr int kRadius = 2;
 

@@ -5,12 +5,14 @@
 // predicted to leave error (the emitter's edge, not the black background);
 // the noisy image stays unbiased (the counts are decided from each pixel's
 // neighbours, never its own samples), over paired seeds against uniform
-// renders; no NaN; and the setting is off wherever its conditions fail.
+// renders; an edge whose stratified samples hide it from the halves still
+// gets them; no NaN; and the setting is off wherever its conditions fail.
 #include <gtest/gtest.h>
 
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <random>
 #include <vector>
 
 #include "../../native/render/sample_distribution.h"
@@ -125,6 +127,48 @@ TEST(SampleDistribution, NoisyImageUnbiasedAgainstUniformOverSeeds) {
     std::printf("most sampled pixel: %.1f spp on average\n", spread);
     EXPECT_GT(spread, 16.0) << "the most sampled pixel should take several times the budget";
     diff.expect_zero_mean("distribution bias");
+}
+
+// An emitter's straight edge seen with stratified samples (on a film as
+// small as the edge term applies to): each half of the
+// edge row's pixels sees the emitter in exactly the same proportion, so the
+// halves' difference estimates no variance there, as it does along runs of
+// an axis-aligned edge in a real render (a Sobol pattern's 4 + 4 samples).
+// The edge row must still be sampled more than the rows on either side of
+// it (which the 5 x 5 box alone judges alike: their boxes hold the same
+// rows) and far more than the smooth, noisy ceiling below.
+TEST(SampleDistribution, StratifiedEdgeRowGetsMoreThanTheRowsBesideIt) {
+    constexpr int kSide = SampleDistribution::kEdgeMinSide, kEdgeRow = 12, kPasses = 8;
+    const Vec3f emitter(2.7f), ceiling_albedo(0.43f), n(0.0f, 0.0f, -1.0f);
+    Film film(kSide, kSide);
+    film.enable_denoising_features();
+    std::mt19937 rng(5);
+    std::exponential_distribution<float> noise(1.0f);
+    for (int pass = 0; pass < kPasses; ++pass)
+        for (int y = 0; y < kSide; ++y)
+            for (int x = 0; x < kSide; ++x) {
+                // Passes 0, 1 see the emitter, 2, 3 the ceiling, ...: 2 of each half's 4.
+                const bool on_emitter = y < kEdgeRow || (y == kEdgeRow && (pass / 2) % 2 == 0);
+                const Vec3f albedo = on_emitter ? emitter : ceiling_albedo;
+                const Vec3f radiance = on_emitter ? emitter : ceiling_albedo * (0.6f * noise(rng));
+                film.add_sample(x, y, radiance, 1.0f, 1.0f, n, uint32_t(pass));
+                film.add_denoising_features(x, y, albedo, n, 1.0f, uint32_t(pass));
+            }
+    const std::vector<uint32_t> targets = SampleDistribution::targets(film, 2 * kPasses);
+    const auto row_mean = [&](int y0, int y1) {
+        double sum = 0.0;
+        for (int y = y0; y < y1; ++y)
+            for (int x = 0; x < kSide; ++x) sum += targets[size_t(y) * kSide + size_t(x)];
+        return sum / double((y1 - y0) * kSide);
+    };
+    const double edge = row_mean(kEdgeRow, kEdgeRow + 1), above = row_mean(kEdgeRow - 1, kEdgeRow),
+                 below = row_mean(kEdgeRow + 1, kEdgeRow + 2), ceiling = row_mean(kEdgeRow + 6, kSide);
+    std::printf("mean target: edge row %.1f, above %.1f, below %.1f, ceiling %.1f, emitter %.1f\n", edge, above,
+                below, ceiling, row_mean(0, kEdgeRow - 4));
+    EXPECT_GT(edge, 1.3 * above);
+    EXPECT_GT(edge, 1.3 * below);
+    EXPECT_GT(edge, 3.0 * ceiling);
+    EXPECT_NEAR(row_mean(0, kSide), 2.0 * kPasses, 0.25);  // the budget holds
 }
 
 TEST(SampleDistribution, BlackImageGetsTheBudgetEverywhere) {
