@@ -8,6 +8,13 @@ namespace coherent {
 
 namespace {
 
+// Pixel i's mean radiance in channel c over its mean albedo, as the denoiser
+// demodulates it (denoiser.cpp: albedo + 0.01). Needs samples and albedo.
+double illumination(const Film::Sums& s, size_t i, int c) {
+    const double n = s.count[i];
+    return (s.rgba[4 * i + size_t(c)] / n) / (std::max(s.albedo[3 * i + size_t(c)] / n, 0.0) + 0.01);
+}
+
 // Per-sample variance of what the denoiser keeps of pixel i's noise
 // (sample_distribution.h), 0 where the pixel lacks a half.
 double kept_variance(const Film::Sums& s, size_t i) {
@@ -23,9 +30,8 @@ double kept_variance(const Film::Sums& s, size_t i) {
         if (s.albedo) {
             const double a = s.albedo[3 * i + size_t(c)], a_odd = s.albedo_odd[3 * i + size_t(c)];
             const double da = (a - a_odd) / n_even - a_odd / n_odd;
-            // The denoiser's demodulation (denoiser.cpp: albedo + 0.01).
-            const double illumination = (sum / n) / (std::max(a / n, 0.0) + 0.01);
-            modulation = da * da * halves * illumination * illumination;
+            const double light = illumination(s, i, c);
+            modulation = da * da * halves * light * light;
         }
         v += modulation + colour_variance * SampleDistribution::kFilteredVarianceShare;
     }
@@ -44,24 +50,23 @@ double kept_variance(const Film::Sums& s, size_t i) {
 // the coverage error that neither the denoiser (which takes the mixed
 // albedo as the truth) nor the neighbours can remove.
 double edge_variance(const Film::Sums& s, int w, int h, int x, int y) {
-    double lo[3] = {0.0, 0.0, 0.0}, hi[3] = {0.0, 0.0, 0.0}, illumination[3] = {0.0, 0.0, 0.0};
+    double lo[3] = {0.0, 0.0, 0.0}, hi[3] = {0.0, 0.0, 0.0}, light[3] = {0.0, 0.0, 0.0};
     int count = 0;
     for (int yy = std::max(0, y - 1); yy <= std::min(h - 1, y + 1); ++yy)
         for (int xx = std::max(0, x - 1); xx <= std::min(w - 1, x + 1); ++xx) {
             const size_t q = size_t(yy) * size_t(w) + size_t(xx);
             if ((xx == x && yy == y) || s.count[q] == 0) continue;
-            const double n = s.count[q];
             for (int c = 0; c < 3; ++c) {
-                const double a = s.albedo[3 * q + size_t(c)] / n;
+                const double a = s.albedo[3 * q + size_t(c)] / s.count[q];
                 lo[c] = count ? std::min(lo[c], a) : a;
                 hi[c] = count ? std::max(hi[c], a) : a;
-                illumination[c] += (s.rgba[4 * q + size_t(c)] / n) / (std::max(a, 0.0) + 0.01);
+                light[c] += illumination(s, q, c);
             }
             ++count;
         }
     double v = 0.0;
     for (int c = 0; c < 3 && count; ++c) {
-        const double contrast = (hi[c] - lo[c]) * illumination[c] / count;
+        const double contrast = (hi[c] - lo[c]) * light[c] / count;
         v += contrast * contrast;
     }
     return std::isfinite(v) ? v : 0.0;
