@@ -1077,23 +1077,36 @@ struct PartSums {
 };
 
 // Direct light (Film::add_direct_light) and the rest of the radiance are
-// filtered apart and added when the direct light carries less than
-// kSplitNoiseShare of the image's estimated variance while being at least
-// kSplitLightShare of its light. Its detail (shadow edges, bump shading at
-// pixel scale, an emitter's outline) is then sharper than its noise, and
-// filtered whole it stops the colour weights from averaging the indirect
-// light's noise across that detail: on the Stanford bunny at 512 x 512,
-// 16 spp, relative RMSE 0.032 -> 0.018. Where the direct light is most of
-// the noise (an HDRI world, many lamps: shares of 0.77-0.80 measured) there
-// is no clean detail to protect, and filtering apart measured no better or
-// worse (the HDRI world 0.0324 -> 0.0339); the others measured 0.01-0.30
-// (docs/results/denoise.md, fourteenth session). Without direct light (the
-// AO integrator) nothing is split.
-constexpr double kSplitNoiseShare = 0.5;
+// filtered apart and added when the direct light is at least
+// kSplitLightShare of the image's light. Its detail (shadow edges, bump
+// shading at pixel scale, an emitter's outline) is sharper than its noise,
+// and filtered whole it stops the colour weights from averaging the
+// indirect light's noise across that detail: on the Stanford bunny at
+// 512 x 512, 16 spp, relative RMSE 0.032 -> 0.018 (docs/results/denoise.md,
+// fourteenth session).
+//
+// Where the direct light carries kDirectRingNoiseShare of the image's
+// estimated variance or more (an HDRI world, many lamps, an emissive
+// panel: shares of 0.77-0.80 measured), its smooth stretches need the
+// ring (DenoiseOptions::ring_radius) as much as the indirect light does.
+// Until the eighteenth session such images were filtered whole, because
+// split without the ring on the direct part they measured no better.
+// Split with it (seeds 1 and 2, 512 x 512, 16 spp): the HDRI world
+// 0.0156 -> 0.0142, many lights 0.0303 -> 0.0292, the emissive panel
+// (seeds 7 and 8) 0.0118 -> 0.0109. Where the direct light's noise is
+// smaller its part keeps the dense window: the ring there gained 0-2 %
+// (the sky world 8 %) for a quarter more of the denoiser's time (the
+// fixture's Cornell box at 64 spp: 7.9 -> 9.3-12.1 % of the render).
 constexpr double kSplitLightShare = 0.1;
+constexpr double kDirectRingNoiseShare = 0.5;
 
-bool filter_direct_apart(const Film::Sums& s, size_t size) {
-    if (!s.direct) return false;
+struct DirectSplit {
+    bool apart = false;        // direct light and the rest filtered apart
+    bool direct_ring = false;  // the direct part's regression weighs the ring too
+};
+
+DirectSplit split_direct_light(const Film::Sums& s, size_t size) {
+    if (!s.direct) return {};
     double var_all = 0.0, var_direct = 0.0, light_all = 0.0, light_direct = 0.0;
     for (size_t i = 0; i < size; ++i) {
         const uint32_t n = s.count[i], n_odd = s.count_odd[i];
@@ -1105,8 +1118,10 @@ bool filter_direct_apart(const Film::Sums& s, size_t size) {
             light_direct += s.direct[3 * i + c] / double(n);
         }
     }
-    return var_all > 0.0 && light_all > 0.0 && var_direct < kSplitNoiseShare * var_all &&
-           light_direct >= kSplitLightShare * light_all;
+    DirectSplit split;
+    split.apart = light_all > 0.0 && light_direct >= kSplitLightShare * light_all;
+    split.direct_ring = split.apart && var_direct >= kDirectRingNoiseShare * var_all;
+    return split;
 }
 
 // DenoiseOptions::ring_radius, but at most a sixteenth of the shorter side:
@@ -1129,7 +1144,8 @@ DenoiseResult denoise(const Film& film, const DenoiseOptions& options, const Den
     Image img;
     // Fewer than 2 passes: no halves to cross-filter.
     if (!read_image(sums, width, height, img)) return {};
-    const bool apart = filter_direct_apart(sums, size);
+    const DirectSplit split = split_direct_light(sums, size);
+    const bool apart = split.apart;
     const int bands = (height + kBandRows - 1) / kBandRows;
     Run run{options, progress};
     // Band-phases: the albedo's prefilter, then a mean and two regressions
@@ -1139,9 +1155,8 @@ DenoiseResult denoise(const Film& film, const DenoiseOptions& options, const Den
     const int window = std::max(0, options.window_radius), patch = std::max(0, options.patch_radius);
     // The ring (DenoiseOptions::ring_radius) goes to the regressions that
     // average smooth light: both candidates of the whole radiance and,
-    // filtered apart, the indirect rest. The direct light's
-    // detail is pixel-scale and its noise small: the ring measured no better
-    // there (docs/results/denoise.md, sixteenth session).
+    // filtered apart, the indirect rest, and the direct light where it
+    // carries most of the noise (split_direct_light).
     const FilterParams dense(k, window, patch), wide(k, window, patch, ring_radius(width, height, options));
     std::vector<float> fa(3 * size, 0.0f), fb(3 * size, 0.0f);
     bool complete = false;
@@ -1162,7 +1177,8 @@ DenoiseResult denoise(const Film& film, const DenoiseOptions& options, const Den
         for (const bool direct : {true, false}) {
             const PartSums part(sums, size, direct);
             read_part_halves(part.sums, img);
-            if (!filter_signal(img, &outliers, direct ? dense : wide, false, run, fa, fb)) return;
+            const FilterParams& params = direct && !split.direct_ring ? dense : wide;
+            if (!filter_signal(img, &outliers, params, false, run, fa, fb)) return;
         }
         complete = true;
     });

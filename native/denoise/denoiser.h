@@ -28,12 +28,14 @@
 //      Two candidates (7 x 7 and 3 x 3 patches) are selected per pixel by
 //      their error estimated from the other half. Both candidates, or the
 //      indirect light when filtered apart (below), also weigh a sparse ring
-//      of pixels out to 25 x 25 (DenoiseOptions::ring_radius).
+//      of pixels out to 25 x 25 (DenoiseOptions::ring_radius), and so does
+//      the direct light where it carries most of the noise.
 //   Where the direct light (the film's add_direct_light: what reached the
-//   camera after at most one scattering) is less than half of the noise, it
-//   and the rest of the radiance go through steps 1-4 apart (one candidate
-//   each, with the outliers of their sum) and are added: its sharp detail
-//   would otherwise keep the weights from averaging the indirect noise.
+//   camera after at most one scattering) is a tenth of the light or more,
+//   it and the rest of the radiance go through steps 1-4 apart (one
+//   candidate each, with the outliers of their sum) and are added: its
+//   sharp detail would otherwise keep the weights from averaging the
+//   indirect noise.
 //   5. Remodulate with the prefiltered albedo, recombine the filtered halves
 //      as the film combines the raw ones, and estimate the result's error
 //      from their difference exactly as
