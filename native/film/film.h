@@ -122,7 +122,7 @@ public:
     // With the features, the part of each sample's radiance that reached the
     // camera after at most one scattering (PathOutput::direct), over all
     // samples and the odd passes': the denoiser filters it apart from the
-    // rest where it is nearly noise-free (denoiser.h).
+    // rest where it is a tenth of the light or more (denoiser.h).
     void add_direct_light(int x, int y, const Vec3f& direct, uint32_t sample);
 
     // The accumulation buffers as the denoiser reads them: per pixel i,

@@ -74,7 +74,8 @@ struct PathOutput {
     // scattering: emission and the world seen directly, next-event
     // estimation at the first hit, and what the first bounce's ray met
     // (Cycles' Dir + Emit + Env). The denoiser filters it apart from the rest
-    // where it is nearly noise-free (denoiser.h); a few additions a path.
+    // where it is a tenth of the light or more (denoiser.h); a few additions
+    // a path.
     Vec3f direct{0.0f};
 };
 
