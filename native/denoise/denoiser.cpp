@@ -1078,12 +1078,12 @@ struct PartSums {
 
 // Direct light (Film::add_direct_light) and the rest of the radiance are
 // filtered apart and added when the direct light is at least
-// kSplitLightShare of the image's light. Its detail (shadow edges, bump
-// shading at pixel scale, an emitter's outline) is sharper than its noise,
-// and filtered whole it stops the colour weights from averaging the
-// indirect light's noise across that detail: on the Stanford bunny at
-// 512 x 512, 16 spp, relative RMSE 0.032 -> 0.018 (docs/results/denoise.md,
-// fourteenth session).
+// kSplitLightShare of the image's light. Where its noise is small, its
+// detail (shadow edges, bump shading at pixel scale, an emitter's outline)
+// is sharper than its noise, and filtered whole it stops the colour weights
+// from averaging the indirect light's noise across that detail: on the
+// Stanford bunny at 512 x 512, 16 spp, relative RMSE 0.032 -> 0.018
+// (docs/results/denoise.md, fourteenth session).
 //
 // Where the direct light carries kDirectRingNoiseShare of the image's
 // estimated variance or more (an HDRI world, many lamps, an emissive
@@ -1096,7 +1096,7 @@ struct PartSums {
 // (seeds 7 and 8) 0.0118 -> 0.0109. Where the direct light's noise is
 // smaller its part keeps the dense window: the ring there gained 0-2 %
 // (the sky world 8 %) for a quarter more of the denoiser's time (the
-// fixture's Cornell box at 64 spp: 7.9 -> 9.3-12.1 % of the render).
+// fixture's Cornell box at 64 spp: 7.7-8.2 -> 9.3-12.1 % of the render).
 constexpr double kSplitLightShare = 0.1;
 constexpr double kDirectRingNoiseShare = 0.5;
 

@@ -396,6 +396,37 @@ TEST(Denoise, BlackImageStaysBlackWithZeroError) {
     EXPECT_EQ(d.error_estimate, 0.0);
 }
 
+// A noise-free image whose light is all direct (emitters seen directly, or
+// a converged render) is split (split_direct_light: the direct light is a
+// tenth of the light or more), with no variance to normalise distances by:
+// it comes back as it went in, finite, with no error estimated.
+TEST(Denoise, NoiseFreeDirectLightComesBackUnchanged) {
+    constexpr int kW = 32, kH = 24;
+    Film film(kW, kH);
+    film.enable_denoising_features();
+    auto value = [](int x, int y) {
+        return Vec3f(0.2f + 0.02f * float(x), 0.5f + (x >= 16 ? 3.0f : 0.0f), 0.1f + 0.03f * float(y));
+    };
+    for (uint32_t pass = 0; pass < 4; ++pass)
+        for (int y = 0; y < kH; ++y)
+            for (int x = 0; x < kW; ++x) {
+                film.add_sample(x, y, value(x, y), 1.0f, 1.0f, Vec3f(0.0f, 0.0f, -1.0f), pass);
+                film.add_denoising_features(x, y, Vec3f(0.5f), Vec3f(0.0f, 0.0f, -1.0f), 1.0f, pass);
+                film.add_direct_light(x, y, value(x, y), pass);
+            }
+    const DenoiseResult d = denoise(film);
+    ASSERT_EQ(d.rgb.size(), size_t(3 * kW * kH));
+    for (int y = 0; y < kH; ++y)
+        for (int x = 0; x < kW; ++x) {
+            const Vec3f v = value(x, y);
+            const float* out = &d.rgb[3 * (size_t(y) * kW + size_t(x))];
+            EXPECT_NEAR(out[0], v.x, 1e-4f * v.x) << x << ", " << y;
+            EXPECT_NEAR(out[1], v.y, 1e-4f * v.y) << x << ", " << y;
+            EXPECT_NEAR(out[2], v.z, 1e-4f * v.z) << x << ", " << y;
+        }
+    EXPECT_EQ(d.error_estimate, 0.0);
+}
+
 TEST(Denoise, EmptyImageGivesZerosNotNaN) {
     const Film empty(16, 12);  // no pixel has a sample (e.g. all were discarded)
     const DenoiseResult d = denoise(empty);
