@@ -29,7 +29,7 @@
 //      their error estimated from the other half. Both candidates, or the
 //      indirect light when filtered apart (below), also weigh a sparse ring
 //      of pixels out to 25 x 25 (DenoiseOptions::ring_radius), and so does
-//      the direct light where it carries most of the noise.
+//      the direct light where it carries 15 % of the noise or more.
 //   Where the direct light (the film's add_direct_light: what reached the
 //   camera after at most one scattering) is a tenth of the light or more,
 //   it and the rest of the radiance go through steps 1-4 apart (one
