@@ -31,9 +31,6 @@ namespace {
 constexpr float kColourK = 1.0f;
 constexpr float kNormalSigma = 0.25f;
 constexpr float kEpsilon = 1e-10f;
-// Added to the albedo before dividing by it: black surfaces (albedo 0) stay
-// finite and barely change what a textured or emissive one divides by.
-constexpr float kAlbedoBias = 0.01f;
 // Half side of the box over which the noisy per-pixel variances are averaged.
 constexpr int kVarianceRadius = 2;
 constexpr int kBandRows = 8;
@@ -131,8 +128,8 @@ void read_halves(const Film::Sums& s, size_t i, Image& img) {
         }
         const float odd = s.rgb_odd[3 * i + c] / float(n_odd);
         const float even = (s.rgba[4 * i + c] - s.rgb_odd[3 * i + c]) / float(n_even);
-        img.planes[kA + c][i] = even / (std::max(even_albedo, 0.0f) + kAlbedoBias);
-        img.planes[kB + c][i] = odd / (std::max(odd_albedo, 0.0f) + kAlbedoBias);
+        img.planes[kA + c][i] = even / (std::max(even_albedo, 0.0f) + kDenoiserAlbedoBias);
+        img.planes[kB + c][i] = odd / (std::max(odd_albedo, 0.0f) + kDenoiserAlbedoBias);
     }
 }
 
@@ -147,7 +144,7 @@ bool read_pixel(const Film::Sums& s, size_t i, Image& img) {
         const float albedo = s.albedo ? s.albedo[3 * i + c] * inv : 1.0f;
         img.planes[kAlbedo + c][i] = albedo;
         img.planes[kNormal + c][i] = s.normal ? s.normal[3 * i + c] * inv : 0.0f;
-        img.modulation[3 * i + c] = std::max(albedo, 0.0f) + kAlbedoBias;
+        img.modulation[3 * i + c] = std::max(albedo, 0.0f) + kDenoiserAlbedoBias;
     }
     read_halves(s, i, img);
     img.planes[kDepth][i] =
@@ -879,7 +876,7 @@ bool prefilter_albedo(const Film::Sums& s, Image& img, Run& run) {
         if (!near[i]) continue;
         for (int c = 0; c < 3; ++c) {
             img.planes[kAlbedo + c][i] = filtered[c][i];
-            img.modulation[3 * i + size_t(c)] = std::max(filtered[c][i], 0.0f) + kAlbedoBias;
+            img.modulation[3 * i + size_t(c)] = std::max(filtered[c][i], 0.0f) + kDenoiserAlbedoBias;
         }
     }
     return true;
@@ -1148,25 +1145,24 @@ DenoiseResult denoise(const Film& film, const DenoiseOptions& options, const Den
     // Fewer than 2 passes: no halves to cross-filter.
     if (!read_image(sums, width, height, img)) return {};
     const DirectSplit split = split_direct_light(sums, size);
-    const bool apart = split.apart;
     const int bands = (height + kBandRows - 1) / kBandRows;
     Run run{options, progress};
     // Band-phases: the albedo's prefilter, then a mean and two regressions
     // of two phases; apart, a mean and one regression for each part.
-    run.steps = (apart ? 7 : 6) * bands;
+    run.steps = (split.apart ? 7 : 6) * bands;
     const float k = kColourK * std::max(0.0f, options.strength);
     const int window = std::max(0, options.window_radius), patch = std::max(0, options.patch_radius);
     // The ring (DenoiseOptions::ring_radius) goes to the regressions that
     // average smooth light: both candidates of the whole radiance and,
     // filtered apart, the indirect rest, and the direct light where it
-    // carries most of the noise (split_direct_light).
+    // carries a large share of the noise (split_direct_light).
     const FilterParams dense(k, window, patch), wide(k, window, patch, ring_radius(width, height, options));
     std::vector<float> fa(3 * size, 0.0f), fb(3 * size, 0.0f);
     bool complete = false;
     tbb::task_arena arena(options.threads > 0 ? options.threads : tbb::task_arena::automatic);
     arena.execute([&] {
         if (!prefilter_albedo(sums, img, run)) return;
-        if (!apart) {
+        if (!split.apart) {
             complete = filter_signal(img, nullptr, wide, true, run, fa, fb);
             return;
         }

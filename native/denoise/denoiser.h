@@ -52,6 +52,12 @@
 
 namespace coherent {
 
+// Added to the albedo before the radiance is divided by it (demodulated):
+// black surfaces (albedo 0) stay finite and barely change what a textured
+// or emissive one divides by. Distribute Samples demodulates the same way
+// (render/sample_distribution.cpp).
+inline constexpr float kDenoiserAlbedoBias = 0.01f;
+
 struct DenoiseOptions {
     // Scales the colour tolerance k: 0 keeps only pixels equal within noise.
     float strength = 1.0f;

@@ -1,6 +1,8 @@
 // Per-pixel sample counts for a denoised render (sample_distribution.h).
 #include "sample_distribution.h"
 
+#include "../denoise/denoiser.h"
+
 #include <algorithm>
 #include <cmath>
 
@@ -9,10 +11,10 @@ namespace coherent {
 namespace {
 
 // Pixel i's mean radiance in channel c over its mean albedo, as the denoiser
-// demodulates it (denoiser.cpp: albedo + 0.01). Needs samples and albedo.
+// demodulates it. Needs samples and albedo.
 double illumination(const Film::Sums& s, size_t i, int c) {
     const double n = s.count[i];
-    return (s.rgba[4 * i + size_t(c)] / n) / (std::max(s.albedo[3 * i + size_t(c)] / n, 0.0) + 0.01);
+    return (s.rgba[4 * i + size_t(c)] / n) / (std::max(s.albedo[3 * i + size_t(c)] / n, 0.0) + kDenoiserAlbedoBias);
 }
 
 // Per-sample variance of what the denoiser keeps of pixel i's noise
