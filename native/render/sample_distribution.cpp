@@ -41,6 +41,33 @@ double kept_variance(const Film::Sums& s, size_t i) {
     return std::isfinite(v) ? v : 0.0;
 }
 
+// Calls visit(q) for each of pixel (x, y)'s 8 neighbours that has samples;
+// returns how many it visited.
+template <class Visit>
+int for_each_neighbour(const Film::Sums& s, int w, int h, int x, int y, Visit&& visit) {
+    int count = 0;
+    for (int yy = std::max(0, y - 1); yy <= std::min(h - 1, y + 1); ++yy)
+        for (int xx = std::max(0, x - 1); xx <= std::min(w - 1, x + 1); ++xx) {
+            const size_t q = size_t(yy) * size_t(w) + size_t(xx);
+            if ((xx == x && yy == y) || s.count[q] == 0) continue;
+            visit(q);
+            ++count;
+        }
+    return count;
+}
+
+// The smallest and largest value seen per channel.
+struct ChannelRange {
+    double lo[3] = {0.0, 0.0, 0.0}, hi[3] = {0.0, 0.0, 0.0};
+    bool any[3] = {false, false, false};
+    void add(int c, double v) {
+        lo[c] = any[c] ? std::min(lo[c], v) : v;
+        hi[c] = any[c] ? std::max(hi[c], v) : v;
+        any[c] = true;
+    }
+    double range(int c) const { return hi[c] - lo[c]; }
+};
+
 // Per-sample variance of pixel (x, y) if an edge of the albedo crosses it,
 // judged from its 8 neighbours only: sum over channels of (the range of
 // their mean albedo x their mean illumination)^2. A pixel whose samples see
@@ -52,24 +79,49 @@ double kept_variance(const Film::Sums& s, size_t i) {
 // the coverage error that neither the denoiser (which takes the mixed
 // albedo as the truth) nor the neighbours can remove.
 double edge_variance(const Film::Sums& s, int w, int h, int x, int y) {
-    double lo[3] = {0.0, 0.0, 0.0}, hi[3] = {0.0, 0.0, 0.0}, light[3] = {0.0, 0.0, 0.0};
-    int count = 0;
-    for (int yy = std::max(0, y - 1); yy <= std::min(h - 1, y + 1); ++yy)
-        for (int xx = std::max(0, x - 1); xx <= std::min(w - 1, x + 1); ++xx) {
-            const size_t q = size_t(yy) * size_t(w) + size_t(xx);
-            if ((xx == x && yy == y) || s.count[q] == 0) continue;
-            for (int c = 0; c < 3; ++c) {
-                const double a = s.albedo[3 * q + size_t(c)] / s.count[q];
-                lo[c] = count ? std::min(lo[c], a) : a;
-                hi[c] = count ? std::max(hi[c], a) : a;
-                light[c] += illumination(s, q, c);
-            }
-            ++count;
+    ChannelRange albedo;
+    double light[3] = {0.0, 0.0, 0.0};
+    const int count = for_each_neighbour(s, w, h, x, y, [&](size_t q) {
+        for (int c = 0; c < 3; ++c) {
+            albedo.add(c, s.albedo[3 * q + size_t(c)] / s.count[q]);
+            light[c] += illumination(s, q, c);
         }
+    });
     double v = 0.0;
     for (int c = 0; c < 3 && count; ++c) {
-        const double contrast = (hi[c] - lo[c]) * light[c] / count;
+        const double contrast = albedo.range(c) * light[c] / count;
         v += contrast * contrast;
+    }
+    return std::isfinite(v) ? v : 0.0;
+}
+
+// Per-sample variance of pixel (x, y) if the edge of a hard shadow crosses
+// it, judged from its 8 neighbours only: sum over channels of the squared
+// range of their mean direct light (PathOutput::direct), less the variance
+// of those means that their halves show (what noise alone would spread them
+// by). A sun's or a small lamp's shadow edge is no edge of the albedo, so
+// edge_variance() does not see it, and where the samples are stratified the
+// halves miss its coverage too; the denoiser filters the direct light apart
+// but cannot tell how much of the pixel the shadow covers. Soft shadows and
+// noisy direct light keep most of their range within the subtracted noise.
+double shadow_edge_variance(const Film::Sums& s, int w, int h, int x, int y) {
+    ChannelRange direct;
+    double noise[3] = {0.0, 0.0, 0.0};
+    const int count = for_each_neighbour(s, w, h, x, y, [&](size_t q) {
+        const double n = s.count[q], n_odd = s.count_odd[q], n_even = n - n_odd;
+        for (int c = 0; c < 3; ++c) {
+            const double sum = s.direct[3 * q + size_t(c)], odd = s.direct_odd[3 * q + size_t(c)];
+            direct.add(c, sum / n);
+            if (n_odd >= 1.0 && n_even >= 1.0) {  // variance of the mean, as kept_variance()
+                const double d = (sum - odd) / n_even - odd / n_odd;
+                noise[c] += d * d * n_even * n_odd / (n * n);
+            }
+        }
+    });
+    double v = 0.0;
+    for (int c = 0; c < 3 && count; ++c) {
+        const double range = direct.range(c);
+        v += std::max(0.0, range * range - noise[c] / count);
     }
     return std::isfinite(v) ? v : 0.0;
 }
@@ -99,6 +151,7 @@ std::vector<uint32_t> SampleDistribution::targets(const Film& film, int spp) {
             const size_t i = size_t(y) * size_t(w) + size_t(x);
             double v = count ? sum / count : 0.0;
             if (edges) v += kEdgeVarianceShare * edge_variance(s, w, h, x, y);
+            if (edges && s.direct) v += kShadowEdgeVarianceShare * shadow_edge_variance(s, w, h, x, y);
             weight[i] = std::sqrt(v);
             total += weight[i];
         }

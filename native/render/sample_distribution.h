@@ -22,8 +22,13 @@
 // out, plus kEdgeVarianceShare x the variance an edge would give it:
 //   sum over channels of (range of the albedo over its 8 neighbours
 //                         x their mean illumination)^2
+// and kShadowEdgeVarianceShare x the variance the edge of a hard shadow
+// would give it:
+//   sum over channels of (range of the direct light over its 8 neighbours)^2
+//                        less their means' variance
 // (the halves' difference misses an edge's coverage where the samples are
-// stratified: sample_distribution.cpp, edge_variance). The allocation that
+// stratified: sample_distribution.cpp, edge_variance and
+// shadow_edge_variance). The allocation that
 // minimises the sum of per-pixel variances is proportional to their
 // standard deviations (Neyman). Leaving the pixel's own samples out of its
 // count keeps the count independent of them, so the pixel's mean stays
@@ -56,8 +61,16 @@ struct SampleDistribution {
     // 0.1; from 0.25 on, smooth light lost too many samples (Sponza, the
     // HDRI world: docs/results/denoise.md, seventeenth session).
     static constexpr double kEdgeVarianceShare = 0.05;
-    // No edge term on images with a shorter side below this: the 3-pixel
-    // band it raises along every edge is then a large share of the image.
+    // The share of a hard shadow's edge variance (shadow_edge_variance: the
+    // range of the neighbours' direct light beyond their noise) counted for
+    // a pixel next to one. Sponza's sun-lit floor at 512 x 512 and 16 spp,
+    // seeds 7 and 8: denoised error 0.0503 / 0.0497 without it, 0.0438 /
+    // 0.0436 with 0.1; 0.05 and 0.25 gave 0.0449 and 0.0440 (seed 7), but
+    // 0.25 cost the bunny and the dragon 4 and 3 % (docs/results/denoise.md,
+    // nineteenth session).
+    static constexpr double kShadowEdgeVarianceShare = 0.1;
+    // No edge terms on images with a shorter side below this: the 3-pixel
+    // band they raise along every edge is then a large share of the image.
     // On the fixture's Cornell box (seeds 7-9, 16 spp) it lowered the
     // denoised error by 7-14 % at 128 x 128 but changed it by +3, +12 and
     // -2 % at 64 x 64.

@@ -6,7 +6,8 @@
 // the noisy image stays unbiased (the counts are decided from each pixel's
 // neighbours, never its own samples), over paired seeds against uniform
 // renders; an edge whose stratified samples hide it from the halves still
-// gets them; no NaN; and the setting is off wherever its conditions fail.
+// gets them, and so does a hard shadow's edge on a floor of one albedo; no
+// NaN; and the setting is off wherever its conditions fail.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -23,6 +24,14 @@ namespace coherent {
 namespace {
 
 constexpr int kRes = 16;
+
+// The mean of rows [y0, y1) of a side x side image of sample counts.
+double mean_of_rows(const std::vector<uint32_t>& counts, int side, int y0, int y1) {
+    double sum = 0.0;
+    for (int y = y0; y < y1; ++y)
+        for (int x = 0; x < side; ++x) sum += counts[size_t(y) * size_t(side) + size_t(x)];
+    return sum / double((y1 - y0) * side);
+}
 
 RenderSettings settings(bool distribute, int spp, uint64_t seed) {
     RenderSettings rs;
@@ -155,12 +164,7 @@ TEST(SampleDistribution, StratifiedEdgeRowGetsMoreThanTheRowsBesideIt) {
                 film.add_denoising_features(x, y, albedo, n, 1.0f, uint32_t(pass));
             }
     const std::vector<uint32_t> targets = SampleDistribution::targets(film, 2 * kPasses);
-    const auto row_mean = [&](int y0, int y1) {
-        double sum = 0.0;
-        for (int y = y0; y < y1; ++y)
-            for (int x = 0; x < kSide; ++x) sum += targets[size_t(y) * kSide + size_t(x)];
-        return sum / double((y1 - y0) * kSide);
-    };
+    const auto row_mean = [&](int y0, int y1) { return mean_of_rows(targets, kSide, y0, y1); };
     const double edge = row_mean(kEdgeRow, kEdgeRow + 1), above = row_mean(kEdgeRow - 1, kEdgeRow),
                  below = row_mean(kEdgeRow + 1, kEdgeRow + 2), ceiling = row_mean(kEdgeRow + 6, kSide);
     std::printf("mean target: edge row %.1f, above %.1f, below %.1f, ceiling %.1f, emitter %.1f\n", edge, above,
@@ -168,6 +172,43 @@ TEST(SampleDistribution, StratifiedEdgeRowGetsMoreThanTheRowsBesideIt) {
     EXPECT_GT(edge, 1.3 * above);
     EXPECT_GT(edge, 1.3 * below);
     EXPECT_GT(edge, 3.0 * ceiling);
+    EXPECT_NEAR(row_mean(0, kSide), 2.0 * kPasses, 0.25);  // the budget holds
+}
+
+// The edge of a sun's shadow across a floor of one albedo, seen with
+// stratified samples: no albedo edge for edge_variance() to find, and the
+// edge row's halves see the sun in the same proportion, so they show no
+// variance there. The direct light's range over the neighbours must still
+// give the edge row more samples than the rows beside it and far more than
+// the noise-free sun-lit floor.
+TEST(SampleDistribution, HardShadowEdgeRowGetsMoreThanTheRowsBesideIt) {
+    constexpr int kSide = SampleDistribution::kEdgeMinSide, kEdgeRow = 40, kPasses = 8;
+    const Vec3f albedo(0.5f), sun = albedo * 4.0f, n(0.0f, 0.0f, 1.0f);
+    Film film(kSide, kSide);
+    film.enable_denoising_features();
+    std::mt19937 rng(11);
+    std::exponential_distribution<float> noise(1.0f);
+    for (int pass = 0; pass < kPasses; ++pass)
+        for (int y = 0; y < kSide; ++y)
+            for (int x = 0; x < kSide; ++x) {
+                // Lit above the edge row; in it passes 0, 1 are lit, 2, 3 not, ...: 2 of each half's 4.
+                const bool lit = y < kEdgeRow || (y == kEdgeRow && (pass / 2) % 2 == 0);
+                const Vec3f direct = lit ? sun : Vec3f(0.0f);
+                const Vec3f radiance = direct + albedo * (0.2f * noise(rng));  // noisy bounce light everywhere
+                film.add_sample(x, y, radiance, 1.0f, 1.0f, n, uint32_t(pass));
+                film.add_denoising_features(x, y, albedo, n, 1.0f, uint32_t(pass));
+                film.add_direct_light(x, y, direct, uint32_t(pass));
+            }
+    const std::vector<uint32_t> targets = SampleDistribution::targets(film, 2 * kPasses);
+    const auto row_mean = [&](int y0, int y1) { return mean_of_rows(targets, kSide, y0, y1); };
+    const double edge = row_mean(kEdgeRow, kEdgeRow + 1), above = row_mean(kEdgeRow - 1, kEdgeRow),
+                 below = row_mean(kEdgeRow + 1, kEdgeRow + 2), lit = row_mean(0, kEdgeRow - 4),
+                 shade = row_mean(kEdgeRow + 4, kSide);
+    std::printf("mean target: edge row %.1f, above %.1f, below %.1f, sun-lit %.1f, shadow %.1f\n", edge, above,
+                below, lit, shade);
+    EXPECT_GT(edge, 1.3 * above);
+    EXPECT_GT(edge, 1.3 * below);
+    EXPECT_GT(edge, 3.0 * lit);
     EXPECT_NEAR(row_mean(0, kSide), 2.0 * kPasses, 0.25);  // the budget holds
 }
 
