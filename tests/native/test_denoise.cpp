@@ -194,6 +194,55 @@ TEST(Denoise, KeepsIsolatedHighlightsSeenInBothHalves) {
     EXPECT_LT(kept, 1.2);
 }
 
+// Sparse light: most paths find nothing and 1 in 50 brings 50x the mean, as
+// in a dim vault lit only by what a bright floor far away bounces into it.
+// Most of a 5 x 5 neighbourhood's halves are then black, so its 75th
+// percentile is 0: judged against that, every half that caught a path was
+// an outlier, clipped to twice the other half (to nothing where that half
+// caught none), and every pixel whose two halves both caught one was a
+// feature, left unfiltered at 6x and more the mean. Judged against the
+// neighbourhood's mean as well, the image keeps its light and no pixel
+// stands out.
+TEST(Denoise, SparseLightIsNeitherClippedAwayNorKeptAsFeatures) {
+    constexpr float kMean = 0.1f, kHit = 1.0f / 50.0f;
+    constexpr int kSpp = 16;
+    Film film(kSize, kSize);
+    film.enable_denoising_features();
+    std::mt19937 rng(41);
+    std::uniform_real_distribution<float> u(0.0f, 1.0f);
+    const Vec3f n(0.0f, 0.0f, -1.0f), albedo(0.5f);
+    for (int pass = 0; pass < kSpp; ++pass)
+        for (int y = 0; y < kSize; ++y)
+            for (int x = 0; x < kSize; ++x) {
+                const float v = u(rng) < kHit ? kMean / kHit : 0.0f;
+                film.add_sample(x, y, Vec3f(v), 1.0f, 1.0f, n, uint32_t(pass));
+                film.add_denoising_features(x, y, albedo, n, 0.0f, uint32_t(pass));
+            }
+    const DenoiseResult d = denoise(film);
+    ASSERT_EQ(d.rgb.size(), size_t(3 * kSize * kSize));
+    double sum = 0.0;
+    int standing_out = 0;
+    for (size_t i = 0; i < d.rgb.size(); i += 3) {
+        ASSERT_TRUE(std::isfinite(d.rgb[i]));
+        sum += d.rgb[i];
+        standing_out += d.rgb[i] > 3.0f * kMean;
+    }
+    const double mean = sum / double(kSize * kSize);
+    const auto exact = [](int, int) { return Vec3f(kMean); };
+    const auto all = [](int, int) { return true; };
+    const double noisy = relative_rmse(rgb_of(film.resolve(PassType::Combined)), kSize, exact, all),
+                 denoised = relative_rmse(d.rgb, kSize, exact, all);
+    std::printf("sparse light: denoised mean / exact %.3f, %d pixels above 3x the mean, relative RMSE %.3f "
+                "(noisy %.3f)\n",
+                mean / kMean, standing_out, denoised, noisy);
+    EXPECT_GT(mean, 0.8 * kMean);
+    EXPECT_LT(mean, 1.2 * kMean);
+    // Both halves catch a path in 2 % of the pixels; some of those still
+    // stand out against a neighbourhood that caught few.
+    EXPECT_LT(standing_out, kSize * kSize / 80);
+    EXPECT_LT(denoised, 0.5 * noisy);
+}
+
 // Direct light filtered apart. A surface whose direct light has detail at
 // pixel scale (bump shading: every pixel its own value, no neighbour
 // predicts it) and no noise, plus smooth indirect light carrying all the
