@@ -17,23 +17,31 @@ double illumination(const Film::Sums& s, size_t i, int c) {
     return (s.rgba[4 * i + size_t(c)] / n) / (std::max(s.albedo[3 * i + size_t(c)] / n, 0.0) + kDenoiserAlbedoBias);
 }
 
+// Whether a pixel's samples fill both halves (even and odd passes).
+bool has_halves(const Film::Sums& s, size_t i) { return s.count_odd[i] >= 1 && s.count[i] - s.count_odd[i] >= 1; }
+
+// Variance of a pixel's mean of n samples from the difference of its even
+// and odd halves' means (film.h): `sum` over all n samples, `odd` over the
+// n_odd odd ones. Needs has_halves().
+double mean_variance(double sum, double odd, double n, double n_odd) {
+    const double n_even = n - n_odd;
+    const double d = (sum - odd) / n_even - odd / n_odd;
+    return d * d * (n_even * n_odd / (n * n));
+}
+
 // Per-sample variance of what the denoiser keeps of pixel i's noise
 // (sample_distribution.h), 0 where the pixel lacks a half.
 double kept_variance(const Film::Sums& s, size_t i) {
-    const double n = s.count[i], n_odd = s.count_odd[i], n_even = n - n_odd;
-    if (n_odd < 1.0 || n_even < 1.0) return 0.0;
-    // Variance of a mean of n samples from its halves' difference (film.h).
-    const double halves = n_even * n_odd / (n * n);
+    if (!has_halves(s, i)) return 0.0;
+    const double n = s.count[i], n_odd = s.count_odd[i];
     double v = 0.0;
     for (int c = 0; c < 3; ++c) {
-        const double sum = s.rgba[4 * i + size_t(c)], odd = s.rgb_odd[3 * i + size_t(c)];
-        const double d = (sum - odd) / n_even - odd / n_odd;
-        double colour_variance = d * d * halves, modulation = 0.0;
+        const double colour_variance = mean_variance(s.rgba[4 * i + size_t(c)], s.rgb_odd[3 * i + size_t(c)], n, n_odd);
+        double modulation = 0.0;
         if (s.albedo) {
-            const double a = s.albedo[3 * i + size_t(c)], a_odd = s.albedo_odd[3 * i + size_t(c)];
-            const double da = (a - a_odd) / n_even - a_odd / n_odd;
             const double light = illumination(s, i, c);
-            modulation = da * da * halves * light * light;
+            modulation = mean_variance(s.albedo[3 * i + size_t(c)], s.albedo_odd[3 * i + size_t(c)], n, n_odd) *
+                         light * light;
         }
         v += modulation + colour_variance * SampleDistribution::kFilteredVarianceShare;
     }
@@ -108,14 +116,11 @@ double shadow_edge_variance(const Film::Sums& s, int w, int h, int x, int y) {
     ChannelRange direct;
     double noise[3] = {0.0, 0.0, 0.0};
     const int count = for_each_neighbour(s, w, h, x, y, [&](size_t q) {
-        const double n = s.count[q], n_odd = s.count_odd[q], n_even = n - n_odd;
+        const double n = s.count[q], n_odd = s.count_odd[q];
         for (int c = 0; c < 3; ++c) {
             const double sum = s.direct[3 * q + size_t(c)], odd = s.direct_odd[3 * q + size_t(c)];
             direct.add(c, sum / n);
-            if (n_odd >= 1.0 && n_even >= 1.0) {  // variance of the mean, as kept_variance()
-                const double d = (sum - odd) / n_even - odd / n_odd;
-                noise[c] += d * d * n_even * n_odd / (n * n);
-            }
+            if (has_halves(s, q)) noise[c] += mean_variance(sum, odd, n, n_odd);
         }
     });
     double v = 0.0;

@@ -202,13 +202,13 @@ TEST(SampleDistribution, HardShadowEdgeRowGetsMoreThanTheRowsBesideIt) {
     const std::vector<uint32_t> targets = SampleDistribution::targets(film, 2 * kPasses);
     const auto row_mean = [&](int y0, int y1) { return mean_of_rows(targets, kSide, y0, y1); };
     const double edge = row_mean(kEdgeRow, kEdgeRow + 1), above = row_mean(kEdgeRow - 1, kEdgeRow),
-                 below = row_mean(kEdgeRow + 1, kEdgeRow + 2), lit = row_mean(0, kEdgeRow - 4),
+                 below = row_mean(kEdgeRow + 1, kEdgeRow + 2), sunlit = row_mean(0, kEdgeRow - 4),
                  shade = row_mean(kEdgeRow + 4, kSide);
     std::printf("mean target: edge row %.1f, above %.1f, below %.1f, sun-lit %.1f, shadow %.1f\n", edge, above,
-                below, lit, shade);
+                below, sunlit, shade);
     EXPECT_GT(edge, 1.3 * above);
     EXPECT_GT(edge, 1.3 * below);
-    EXPECT_GT(edge, 3.0 * lit);
+    EXPECT_GT(edge, 3.0 * sunlit);
     EXPECT_NEAR(row_mean(0, kSide), 2.0 * kPasses, 0.25);  // the budget holds
 }
 
