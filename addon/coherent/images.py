@@ -1,8 +1,10 @@
 # SPDX-License-Identifier: Apache-2.0
 """Blender images to native textures (Scene.add_image).
 
-An image that Blender reads from a file on disk is handed over by path, so
-OpenImageIO's texture cache loads, tiles and MIP-maps it itself. One that
+An image that Blender reads from a file on disk is handed over by path: the
+native side decodes it with OpenImageIO, once while the file is unchanged,
+and filters it from memory (beyond the texture memory limit, through
+OpenImageIO's texture cache; native/shader/textures.h). One that
 exists only inside Blender (packed, generated, painted) is handed over as
 its pixels through numpy (Image.pixels.foreach_get, the only pixel access
 Blender offers; it stores rows bottom-up, files top-down), turned back into
@@ -23,8 +25,8 @@ Straight-alpha colour byte images are associated here, texel by texel, as
 Cycles does when it loads them (BlenderImageLoader for packed and generated
 images, OIIOImageLoader for files: c = c * a / 255 in integers, truncated),
 so filtering sees the texels Cycles filters; the Image Texture node
-unassociates after filtering when its Alpha output is used. OIIO would read
-a file's texels straight, so such a file is handed over in memory too.
+unassociates after filtering when its Alpha output is used. A file is
+associated the same way where the native side decodes it (associate=True).
 Float images need nothing: Blender holds float pixels associated already.
 Data (Non-Color), Channel Packed and None images stay as stored.
 """
@@ -172,8 +174,9 @@ class ImageExporter:
         path = None
         if not _in_memory_only(image):
             path = _file_path(image)
-            if not associate:
-                return self.scene.add_image(label, path=path)
+            # The native side decodes it (and associates it as Cycles would), once while the file is
+            # unchanged: Blender's pixels of it cost a decode and a float per texel.
+            return self.scene.add_image(label, path=path, associate=associate)
         version = _version(image, path, self.content_hash)
         if version is not None:
             key = f"{_identity(image)}\n{version}"

@@ -111,14 +111,14 @@ uint32_t add_pixel_image(TextureStore& store, const std::string& label, const py
 }
 
 uint32_t add_image(PyScene& self, const std::string& label, const py::handle& path, const py::handle& pixels,
-                   const std::string& key) {
+                   const std::string& key, bool associate) {
     self.check_mutable("add_image");
     TextureStore& store = texture_store(self);
     if (!pixels.is_none()) return add_pixel_image(store, label, pixels, key);
     if (path.is_none()) throw py::value_error("add_image: give a path or pixels");
     const std::string file = path.cast<std::string>();
     py::gil_scoped_release unlocked;
-    return store.add_file(file, label);
+    return store.add_file(file, label, associate);
 }
 
 py::object add_retained_image(PyScene& self, const std::string& label, const std::string& key) {
@@ -228,10 +228,13 @@ void bind_shading(py::module_& m) {
 whether normal maps need tangents, whether object-space coordinates are read, and
 the colour attributes (by name, in the order add_mesh's `colors` lists them).)doc");
     scene.def("add_image", &add_image, py::arg("label"), py::kw_only(), py::arg("path") = py::none(),
-              py::arg("pixels") = py::none(), py::arg("key") = "",
+              py::arg("pixels") = py::none(), py::arg("key") = "", py::arg("associate") = false,
               R"doc(Adds an image for Image Texture instructions; returns its index.
-path: an image file OpenImageIO reads; or pixels: (H, W, C) with C in 1..4, first
-row at the top, uint8 (kept as bytes, read as value / 255) or float.
+path: an image file OpenImageIO reads (decoded whole while the texture memory
+limit allows, else read through its texture cache; associate=True: a straight
+byte colour file whose colour Cycles associates with its alpha on load, decoded
+whole and associated); or pixels: (H, W, C) with C in 1..4, first row at the
+top, uint8 (kept as bytes, read as value / 255) or float.
 key ("identity\nversion"): the pixels are retained after this scene goes, for
 add_retained_image. An unreadable or empty image renders magenta and is listed
 in texture_stats()['warnings'] under `label`.)doc");

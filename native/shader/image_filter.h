@@ -6,8 +6,8 @@
 // B-spline weights and extension modes, and the same float operations in the
 // same order, so a lookup equals Cycles' to the bit for bytes and floats.
 //
-// This is no loader and no cache: the pixels are the host's, already in RAM.
-// Image files go through OpenImageIO's TextureSystem (textures.h). One lookup
+// This is no loader and no cache: the pixels are the host's, already in RAM,
+// or an image file OpenImageIO decoded (textures.h). One lookup
 // takes no lock, allocates nothing and calls nothing virtual.
 #pragma once
 

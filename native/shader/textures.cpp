@@ -11,6 +11,7 @@
 #include <sys/stat.h>
 
 #include <cmath>
+#include <cstdint>
 #include <cstring>
 #include <map>
 #include <optional>
@@ -129,7 +130,8 @@ struct TextureStore::Oiio {
     OIIO::TextureSystem* ts = nullptr;
 };
 
-TextureStore::TextureStore(size_t cache_megabytes) : oiio_(std::make_unique<Oiio>()) {
+TextureStore::TextureStore(size_t cache_megabytes, bool decode_files)
+    : oiio_(std::make_unique<Oiio>()), cache_bytes_limit_(cache_megabytes << 20), decode_files_(decode_files) {
     oiio_->ts = process_texture_system();
     oiio_->ts->attribute("max_memory_MB", float(cache_megabytes));
     // Pixel buffers kept for later renders count against the same limit.
@@ -164,7 +166,9 @@ void TextureStore::check_image(Image& image) {
     image.missing = false;
 }
 
-uint32_t TextureStore::add_file(const std::string& path, const std::string& label) {
+uint32_t TextureStore::add_file(const std::string& path, const std::string& label, bool associate) {
+    uint32_t index = 0;
+    if ((decode_files_ || associate) && add_decoded_file(path, label, associate, index)) return index;
     HeldFiles::instance().refresh(*oiio_->ts, path);
     auto image = std::make_unique<Image>();
     image->path = path;
@@ -229,6 +233,92 @@ uint32_t TextureStore::add_bytes(const std::string& label, int width, int height
     auto buffer = new_buffer(width, height, channels, false);
     std::memcpy(buffer->bytes.data(), pixels, buffer->bytes.size());
     return add_buffer(label, std::move(buffer), key);
+}
+
+namespace {
+
+// The texel values of a decoded file: bytes for 8-bit files, float for wider
+// ones, as the TextureSystem reads them (and Blender holds them).
+bool is_wide(const OIIO::ImageSpec& spec) { return spec.format.size() > 1; }
+
+// Expands n-channel texels to RGBA as lookup_by reads the TextureSystem's:
+// grey to (g, g, g), alpha 1 where the file has none, channels past 4 dropped.
+template <class T>
+void expand_to_rgba(const T* in, int channels, size_t texels, T opaque, T* out) {
+    for (size_t i = 0; i < texels; ++i, in += channels, out += 4) {
+        if (channels <= 2) out[0] = out[1] = out[2] = in[0];
+        else out[0] = in[0], out[1] = in[1], out[2] = in[2];
+        out[3] = channels == 2 ? in[1] : (channels >= 4 ? in[3] : opaque);
+    }
+}
+
+// Cycles' association of straight byte texels on load (BlenderImageLoader,
+// OIIOImageLoader): c = c * a / 255 in integers, truncated.
+void associate_bytes(uint8_t* rgba, size_t texels) {
+    for (size_t i = 0; i < texels; ++i, rgba += 4)
+        for (int c = 0; c < 3; ++c) rgba[c] = uint8_t((unsigned(rgba[c]) * rgba[3]) / 255u);
+}
+
+// The file's first subimage at full resolution as RGBA texels; null when it
+// cannot be read or would take more than `max_bytes` (the caller then falls
+// back to the TextureSystem, which reports an unreadable file). `associate`:
+// a byte file's colour is associated with its alpha.
+std::shared_ptr<PixelBuffer> decode_image_file(const std::string& path, size_t max_bytes, bool associate) {
+    OIIO::ImageSpec config;
+    config.attribute("oiio:UnassociatedAlpha", 1);  // as the TextureSystem's "unassociatedalpha"
+    auto in = OIIO::ImageInput::open(path, &config);
+    if (!in) {
+        (void)OIIO::geterror();
+        return nullptr;
+    }
+    const OIIO::ImageSpec spec = in->spec();
+    const bool wide = is_wide(spec);
+    const size_t texels = size_t(std::max(spec.width, 0)) * size_t(std::max(spec.height, 0));
+    if (texels == 0 || spec.nchannels <= 0 || spec.depth > 1 || texels * 4 * (wide ? 4 : 1) > max_bytes) return nullptr;
+    const int channels = spec.nchannels;
+    auto buffer = new_buffer(spec.width, spec.height, 4, wide);
+    const OIIO::TypeDesc type = wide ? OIIO::TypeDesc::FLOAT : OIIO::TypeDesc::UINT8;
+    std::vector<uint8_t> raw;
+    uint8_t* target = buffer->bytes.data();
+    if (channels != 4) {
+        raw.resize(texels * size_t(channels) * type.size());
+        target = raw.data();
+    }
+    if (!in->read_image(0, 0, 0, channels, type, target)) {
+        (void)in->geterror();
+        return nullptr;
+    }
+    if (channels != 4) {
+        if (wide)
+            expand_to_rgba(reinterpret_cast<const float*>(raw.data()), channels, texels, 1.0f,
+                           reinterpret_cast<float*>(buffer->bytes.data()));
+        else
+            expand_to_rgba(raw.data(), channels, texels, uint8_t(255), buffer->bytes.data());
+    }
+    if (wide) buffer->zeroed = zero_non_finite(reinterpret_cast<float*>(buffer->bytes.data()), texels * 4);
+    else if (associate && (channels == 2 || channels >= 4)) associate_bytes(buffer->bytes.data(), texels);
+    return buffer;
+}
+
+}  // namespace
+
+bool TextureStore::add_decoded_file(const std::string& path, const std::string& label, bool associate,
+                                    uint32_t& index) {
+    const std::optional<FileStamp> stamp = stamp_of(path);
+    if (!stamp) return false;
+    const std::string key = std::string(associate ? "associated " : "file ") + path + "\n" +
+                            std::to_string(stamp->size) + " " + std::to_string(stamp->inode) + " " +
+                            std::to_string(stamp->modified_ns) + " " + std::to_string(stamp->changed_ns);
+    if (add_retained(label, key, index)) return true;
+    // Association needs the whole image whatever the limit (as Blender's
+    // pixels of it, which the add-on would hand over instead, would be).
+    const size_t used = buffer_bytes();
+    if (used >= cache_bytes_limit_ && !associate) return false;
+    const size_t room = associate ? SIZE_MAX : cache_bytes_limit_ - used;
+    std::shared_ptr<PixelBuffer> buffer = decode_image_file(path, room, associate);
+    if (!buffer) return false;
+    index = add_buffer(label, std::move(buffer), key);
+    return true;
 }
 
 bool TextureStore::add_retained(const std::string& label, const std::string& key, uint32_t& index) {

@@ -1,7 +1,4 @@
-// Image textures of a scene. Image files are looked up through OpenImageIO's
-// TextureSystem (its ImageCache tiles, caches and MIP-maps them under one
-// memory limit; a file's tiles outlive the store while the file's size,
-// inode and times stay the same). Images that exist only inside the host
+// Image textures of a scene. Images that exist only inside the host
 // application (packed, generated or painted in Blender) come as whole pixel buffers (bytes stay
 // bytes, floats floats; memory_images.h) and are filtered straight from that
 // buffer as Cycles' CPU kernel does (image_filter.h): for pixels already in
@@ -10,6 +7,16 @@
 // the texel's cache miss is most of both). Such an image added under a key is
 // retained after the store goes, so the next render of the same unchanged
 // image reuses it (add_retained).
+//
+// Image files are decoded by OpenImageIO into such buffers too, as long as
+// the store's buffers stay within its memory limit (Cycles holds every image
+// whole), and retained under the file's size, inode and times, so an
+// unchanged file is decoded once per process. A file beyond the limit is
+// looked up through OpenImageIO's TextureSystem, whose ImageCache tiles and
+// caches it under the same limit (its tiles, too, outlive the store while the
+// file is unchanged). bench/textured_twin.py --files, whose normal map went
+// through the cache until the twentieth session: the textured render 0.45 s
+// -> 0.33 s, as with the images packed (docs/results/textured_twin.md).
 //
 // An image that cannot be read (missing file, zero size, unreadable) keeps
 // its index but looks up Cycles' "missing texture" magenta; the reason is in
@@ -51,13 +58,18 @@ constexpr float kMissingTexture[4] = {1.0f, 0.0f, 1.0f, 1.0f};
 
 class TextureStore {
 public:
-    explicit TextureStore(size_t cache_megabytes = 1024);
+    // `decode_files` false: every file goes through the TextureSystem (the
+    // reference decoded files are tested against).
+    explicit TextureStore(size_t cache_megabytes = 1024, bool decode_files = true);
     ~TextureStore();
     TextureStore(const TextureStore&) = delete;
     TextureStore& operator=(const TextureStore&) = delete;
 
     // Registers an image file; returns its index. `label` names it in warnings.
-    uint32_t add_file(const std::string& path, const std::string& label);
+    // Decoded whole (as RGBA, alpha as stored) while within the memory limit.
+    // `associate`: a straight byte colour file whose texels Cycles associates
+    // on load (c * a / 255, truncated); decoded whatever the limit.
+    uint32_t add_file(const std::string& path, const std::string& label, bool associate = false);
     // Registers pixels (height rows of width x channels floats, first row at
     // the TOP, as image files store them); copied. Returns its index.
     // A non-empty `key` ("identity\nversion", see memory_images.h) retains the copy.
@@ -80,7 +92,8 @@ public:
     // image is in memory (files: nothing; OIIO finds its tiles itself).
     void prefetch(uint32_t image, float u, float v, TextureLookup how) const;
     // The pixels lookup() filters directly (image_filter.h) when `image` is
-    // in memory and present; null for files and missing images.
+    // in memory and present; null for files read through the TextureSystem
+    // and for missing images.
     const ImagePixels* memory_pixels(uint32_t image) const;
     // The same through OIIO's TextureSystem also for in-memory images: the
     // reference the direct filter is tested against.
@@ -104,7 +117,9 @@ private:
     mutable std::mutex warn_mutex_;
     mutable std::vector<std::string> warnings_;
     size_t reused_ = 0;
-    size_t cache_bytes_limit_ = 0;
+    size_t cache_bytes_limit_ = 0;  // for this store's buffers, and OIIO's tiles
+    bool decode_files_ = true;
+    bool add_decoded_file(const std::string& path, const std::string& label, bool associate, uint32_t& index);
     void lookup_by(uint32_t image, float u, float v, TextureLookup how, float rgba[4], bool direct) const;
     void check_image(Image& image);
     uint32_t add_buffer(const std::string& label, std::shared_ptr<PixelBuffer> buffer, const std::string& key);

@@ -69,10 +69,11 @@ def test_second_render_reuses_in_memory_images(handover):
     for case, n, count in re.findall(r"HANDOVER_RENDER (\w+) (\d).*?Coherent: finished .*?1 images \((\d+) reused\)",
                                      stdout, flags=re.S):
         reused[(case, int(n))] = int(count)
-    # In memory: handed over by the first render, reused by the second. Files: OIIO reads them by path.
-    # Repacked from other bytes of the same length: handed over again, then reused.
+    # In memory: handed over by the first render, reused by the second. Files: decoded natively by the
+    # first render, reused by the second while the file is unchanged. Repacked from other bytes of the
+    # same length: handed over again, then reused.
     assert reused == {("packed", 0): 0, ("packed", 1): 1, ("generated", 0): 0, ("generated", 1): 1,
-                      ("file", 0): 0, ("file", 1): 0, ("repacked", 0): 0, ("repacked", 1): 1}, stdout[-3000:]
+                      ("file", 0): 0, ("file", 1): 1, ("repacked", 0): 0, ("repacked", 1): 1}, stdout[-3000:]
 
 
 def test_repacked_image_is_not_the_one_held_before(handover):

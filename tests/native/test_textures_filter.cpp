@@ -5,8 +5,14 @@
 // extension, bytes and floats, 1, 3 and 4 channels.
 #include <gtest/gtest.h>
 
+#include <OpenImageIO/imageio.h>
+#include <unistd.h>
+
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <limits>
 #include <random>
 #include <string>
 #include <vector>
@@ -234,6 +240,22 @@ TEST(ImageFilter, PrefetchVisitsEveryCacheLineALookupReadsAndNothingOutside) {
     EXPECT_GT(read, 10000u);
 }
 
+// Writes `pixels` (rows top down, `channels` values of `type` a texel) as
+// an image file at `path` (its extension picks the format).
+void write_image(const std::string& path, int w, int h, int channels, OIIO::TypeDesc type, const void* pixels) {
+    auto out = OIIO::ImageOutput::create(path);
+    ASSERT_TRUE(out) << path;
+    OIIO::ImageSpec spec(w, h, channels, type);
+    spec.attribute("oiio:UnassociatedAlpha", 1);  // the values as given, not divided by alpha into a PNG
+    ASSERT_TRUE(out->open(path, spec)) << out->geterror();
+    ASSERT_TRUE(out->write_image(type, pixels)) << out->geterror();
+    out->close();
+}
+
+std::string temp_image_path(const std::string& name) {
+    return (std::filesystem::temp_directory_path() / ("coherent_" + std::to_string(getpid()) + "_" + name)).string();
+}
+
 // Where the OIIO path is not Cycles and the direct filter is (both asserted
 // above): closest at a texel boundary may pick either texel (OIIO is given
 // t = 1 - v, whose rounding can land across it; at v = 0 exactly it reads the
@@ -249,6 +271,31 @@ bool comparable(float u, float v, int w, int h, int channels, TextureLookup h_, 
     return !(c == 3 && (channels == 1 || channels == 3));
 }
 
+// Compares lookup `a` of an image with lookup `b` (the reference) at every
+// interpolation, extension and sample point where both are Cycles'; returns
+// how many values it compared (stops at the first that differs).
+template <class A, class B>
+size_t compare_everywhere(int w, int h, int channels, const std::string& what, A&& a, B&& b) {
+    size_t compared = 0;
+    for (Interp i : kInterps)
+        for (Extension e : kExtensions)
+            for (auto [u, v] : sample_points(w, h)) {
+                float x[4], y[4];
+                a(u, v, how(i, e), x);
+                b(u, v, how(i, e), y);
+                for (int c = 0; c < 4; ++c) {
+                    if (!comparable(u, v, w, h, channels, how(i, e), c)) continue;
+                    ++compared;
+                    if (std::fabs(x[c] - y[c]) > 2e-5f * (1.0f + std::fabs(y[c]))) {
+                        ADD_FAILURE() << what << ", " << name(how(i, e)) << " at (" << u << ", " << v << ") channel "
+                                      << c << ": " << x[c] << " against " << y[c];
+                        return compared;
+                    }
+                }
+            }
+    return compared;
+}
+
 TEST(ImageFilter, DirectFilterEqualsOiioOnTheSameBuffer) {
     const int w = 13, h = 7;  // odd sizes: wrapping is not a power-of-two mask
     size_t compared = 0;
@@ -260,22 +307,131 @@ TEST(ImageFilter, DirectFilterEqualsOiioOnTheSameBuffer) {
             for (uint8_t b : bytes) floats.push_back(float(b) / 64.0f - 1.0f);  // negative and over 1 too
             const uint32_t id = is_float ? store.add_pixels("f", w, h, channels, floats.data())
                                          : store.add_bytes("b", w, h, channels, bytes.data());
-            for (Interp i : kInterps)
-                for (Extension e : kExtensions)
-                    for (auto [u, v] : sample_points(w, h)) {
-                        float direct[4], oiio[4];
-                        store.lookup(id, u, v, how(i, e), direct);
-                        store.lookup_through_oiio(id, u, v, how(i, e), oiio);
-                        for (int c = 0; c < 4; ++c) {
-                            if (!comparable(u, v, w, h, channels, how(i, e), c)) continue;
-                            ++compared;
-                            ASSERT_NEAR(direct[c], oiio[c], 2e-5f * (1.0f + std::fabs(oiio[c])))
-                                << (is_float ? "float " : "byte ") << channels << " channels, " << name(how(i, e))
-                                << " at (" << u << ", " << v << ") channel " << c;
-                        }
-                    }
+            compared += compare_everywhere(
+                w, h, channels, (is_float ? "float " : "byte ") + std::to_string(channels) + " channels",
+                [&](float u, float v, TextureLookup h_, float* out) { store.lookup(id, u, v, h_, out); },
+                [&](float u, float v, TextureLookup h_, float* out) { store.lookup_through_oiio(id, u, v, h_, out); });
         }
     EXPECT_GT(compared, size_t(6 * 9 * 600 * 3));  // most points of every case
+}
+
+// Image files are decoded whole into memory (TextureStore::add_file) and
+// filtered directly; the oracle is OpenImageIO's TextureSystem reading the
+// same file itself (a store with decode_files false). Grey, grey + alpha,
+// RGB and RGBA 8-bit PNGs, a 16-bit PNG and a float EXR, odd sizes.
+TEST(ImageFiles, DecodedFilesLookUpAsTheTextureSystemReadsThem) {
+    const int w = 13, h = 7;
+    struct Case {
+        const char* name;
+        int channels;
+        OIIO::TypeDesc type;
+    };
+    const Case cases[] = {{"grey.png", 1, OIIO::TypeDesc::UINT8},  {"grey_alpha.png", 2, OIIO::TypeDesc::UINT8},
+                          {"rgb.png", 3, OIIO::TypeDesc::UINT8},   {"rgba.png", 4, OIIO::TypeDesc::UINT8},
+                          {"rgb16.png", 3, OIIO::TypeDesc::UINT16}, {"rgba.exr", 4, OIIO::TypeDesc::FLOAT}};
+    size_t compared = 0;
+    for (const Case& c : cases) {
+        const std::string path = temp_image_path(c.name);
+        const std::vector<uint8_t> bytes = pattern_bytes(w, h, c.channels);
+        std::vector<uint16_t> shorts;
+        std::vector<float> floats;
+        for (uint8_t b : bytes) shorts.push_back(uint16_t(b * 257 + (b % 7)));
+        for (uint8_t b : bytes) floats.push_back(float(b) / 64.0f - 1.0f);
+        const void* data = c.type == OIIO::TypeDesc::UINT8    ? static_cast<const void*>(bytes.data())
+                           : c.type == OIIO::TypeDesc::UINT16 ? static_cast<const void*>(shorts.data())
+                                                              : static_cast<const void*>(floats.data());
+        write_image(path, w, h, c.channels, c.type, data);
+        TextureStore decoded(64), reference(64, false);
+        const uint32_t id = decoded.add_file(path, c.name), ref = reference.add_file(path, c.name);
+        ASSERT_NE(decoded.memory_pixels(id), nullptr) << c.name << " was not decoded";
+        EXPECT_EQ(reference.memory_pixels(ref), nullptr);
+        EXPECT_TRUE(decoded.warnings().empty()) << decoded.warnings()[0];
+        compared += compare_everywhere(
+            w, h, c.channels == 2 ? 4 : c.channels, c.name,
+            [&](float u, float v, TextureLookup h_, float* out) { decoded.lookup(id, u, v, h_, out); },
+            [&](float u, float v, TextureLookup h_, float* out) { reference.lookup(ref, u, v, h_, out); });
+        std::remove(path.c_str());
+    }
+    EXPECT_GT(compared, size_t(6 * 9 * 600 * 3));
+}
+
+// A file is decoded once per process while it is unchanged: a later store
+// (a re-render) reuses the pixels; NaN texels of a float file become 0 with
+// a warning, as for in-memory images (and as Cycles loads them).
+TEST(ImageFiles, AnUnchangedFileIsDecodedOnceAndItsNaNTexelsAreZero) {
+    const std::string path = temp_image_path("nan.exr");
+    std::vector<float> px(4 * 4 * 4, 0.5f);
+    px[5 * 4 + 1] = std::numeric_limits<float>::quiet_NaN();
+    write_image(path, 4, 4, 4, OIIO::TypeDesc::FLOAT, px.data());
+    for (size_t render = 0; render < 2; ++render) {
+        TextureStore store(64);
+        const uint32_t id = store.add_file(path, "Material 'm', node 'n'");
+        EXPECT_EQ(store.reused(), render);
+        ASSERT_EQ(store.warnings().size(), 1u);
+        EXPECT_NE(store.warnings()[0].find("NaN"), std::string::npos) << store.warnings()[0];
+        float c[4];
+        TextureLookup closest;
+        closest.interp = Interp::Closest;
+        store.lookup(id, 1.5f / 4, 2.5f / 4, closest, c);  // texel (1, 1) from the top: row 2 from the bottom
+        EXPECT_EQ(c[1], 0.0f);
+        EXPECT_EQ(c[0], 0.5f);
+    }
+    std::remove(path.c_str());
+}
+
+// The store's memory limit bounds the decoded pixels: a file that would pass
+// it is read through the TextureSystem's tiles instead, and looks the same.
+TEST(ImageFiles, AFileBeyondTheMemoryLimitGoesThroughTheTextureCache) {
+    const int w = 700, h = 400;  // 1.12 MB as RGBA bytes, past a 1 MB limit
+    const std::string big = temp_image_path("big.png"), small = temp_image_path("small.png");
+    const std::vector<uint8_t> bytes = pattern_bytes(w, h, 3);
+    write_image(big, w, h, 3, OIIO::TypeDesc::UINT8, bytes.data());
+    write_image(small, 16, 16, 3, OIIO::TypeDesc::UINT8, bytes.data());
+    TextureStore limited(1), roomy(64);
+    const uint32_t small_id = limited.add_file(small, "small"), big_id = limited.add_file(big, "big");
+    const uint32_t decoded_id = roomy.add_file(big, "big");
+    EXPECT_NE(limited.memory_pixels(small_id), nullptr);
+    EXPECT_EQ(limited.memory_pixels(big_id), nullptr);
+    ASSERT_NE(roomy.memory_pixels(decoded_id), nullptr);
+    EXPECT_LE(limited.buffer_bytes(), size_t(1) << 20);
+    for (auto [u, v] : sample_points(w, h)) {
+        float a[4], b[4];
+        limited.lookup(big_id, u, v, how(Interp::Linear, Extension::Repeat), a);
+        roomy.lookup(decoded_id, u, v, how(Interp::Linear, Extension::Repeat), b);
+        // OIIO is given 1 - v: across 400 rows its rounding moves a weight by ~1e-5.
+        for (int k = 0; k < 4; ++k) ASSERT_NEAR(a[k], b[k], 1e-4f) << "at (" << u << ", " << v << ")";
+    }
+    EXPECT_GT(limited.memory_bytes(), 0u);  // the big file's tiles
+    std::remove(big.c_str());
+    std::remove(small.c_str());
+}
+
+// A straight byte colour file is associated as Cycles associates it on load
+// (c * a / 255 in integers, truncated), every texel, when asked to; its
+// alpha and a file without alpha stay as stored.
+TEST(ImageFiles, AStraightColourFileIsAssociatedAsCyclesLoadsIt) {
+    const int w = 9, h = 5;
+    const std::string path = temp_image_path("straight.png");
+    const std::vector<uint8_t> bytes = pattern_bytes(w, h, 4);
+    write_image(path, w, h, 4, OIIO::TypeDesc::UINT8, bytes.data());
+    TextureStore store(64);
+    const uint32_t associated = store.add_file(path, "associated", true), straight = store.add_file(path, "straight");
+    TextureLookup closest;
+    closest.interp = Interp::Closest;
+    for (int y = 0; y < h; ++y)
+        for (int x = 0; x < w; ++x) {
+            const uint8_t* t = &bytes[(size_t(y) * w + x) * 4];  // row y from the top
+            const float u = (x + 0.5f) / w, v = (h - 1 - y + 0.5f) / h;
+            float a[4], s[4];
+            store.lookup(associated, u, v, closest, a);
+            store.lookup(straight, u, v, closest, s);
+            for (int c = 0; c < 3; ++c) {
+                EXPECT_FLOAT_EQ(a[c], float((unsigned(t[c]) * t[3]) / 255u) / 255.0f) << x << ", " << y << " channel " << c;
+                EXPECT_FLOAT_EQ(s[c], float(t[c]) / 255.0f);
+            }
+            EXPECT_FLOAT_EQ(a[3], float(t[3]) / 255.0f);
+        }
+    std::remove(path.c_str());
 }
 
 }  // namespace
