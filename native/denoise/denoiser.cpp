@@ -172,24 +172,33 @@ bool read_pixel(const Film::Sums& s, size_t i, Image& img) {
 // caught one in was kept unfiltered as a feature. The mean is the level
 // such light has (Sponza at 512 x 512, 16 spp: denoised 0.0438 -> 0.0403;
 // the Cornell boxes 11-13 % lower; docs/results/denoise.md).
+// That factor is for scenes with a mirror or glass lobe (DenoiseOptions::
+// caustics): a caustic's paths (a diffuse bounce, then a mirror or glass
+// one, then a small bright light) are the rarest and brightest, and at 9x
+// they passed the level (the glass scene at 512 x 512, 16 spp: 0.154 ->
+// 0.350). Without such lobes the rare bright paths are sparse diffuse light,
+// which every clip biases, and the level is twice as high: Sponza 0.0403 ->
+// 0.0384, the public Cornell box 0.0527 -> 0.0460 (20x: 0.0380 on Sponza;
+// docs/results/denoise.md, twentieth session).
 constexpr float kOutlierFactor = 6.0f;
+constexpr float kSparseLightOutlierFactor = 12.0f;
 // A pixel the other half also sees bright is a real feature (a highlight, a
 // caustic, a small light seen directly), not an outlier: a half is clipped
 // no lower than kAgreementFactor x the other half's value at that pixel.
 constexpr float kAgreementFactor = 2.0f;
 constexpr int kOutlierRadius = 2;
 
-//
-// Returns the pixels both halves see that bright (features): small features
-// (a highlight, a caustic, a light seen directly) that no filter can predict
-// from their neighbours, so keep_features leaves them unfiltered; and the
-// factor each half's pixel was scaled by (1 where it was not).
+// find_outliers returns the pixels both halves see brighter than the level
+// times `factor` (features): small features (a highlight, a caustic, a
+// light seen directly) that no filter can predict from their neighbours,
+// so keep_features leaves them unfiltered; and the factor apply_outliers
+// scales each half's pixel by (1 where it is no outlier).
 struct Outliers {
     std::vector<uint8_t> features;
     std::vector<float> scale[2];
 };
 
-Outliers suppress_outliers(Image& img) {
+Outliers find_outliers(const Image& img, float factor) {
     const int w = img.width, h = img.height;
     const size_t size = size_t(w) * size_t(h);
     Outliers out;
@@ -219,23 +228,22 @@ Outliers suppress_outliers(Image& img) {
                     sum += lum[0][j] + lum[1][j];
                 }
             std::nth_element(values, values + (3 * n) / 4, values + n);
-            const float local = kOutlierFactor * std::max(values[(3 * n) / 4], sum / float(n));
+            const float local = factor * std::max(values[(3 * n) / 4], sum / float(n));
             features[i] = lum[0][i] > local && lum[1][i] > local;
             for (int half = 0; half < 2; ++half) {
                 const float l = lum[half][i];
                 const float limit = std::max(local, kAgreementFactor * lum[1 - half][i]);
-                if (!(l > limit)) continue;
-                out.scale[half][i] = limit / l;
-                for (int c = 0; c < 3; ++c) img.planes[(half ? kB : kA) + c][i] *= limit / l;
+                if (l > limit) out.scale[half][i] = limit / l;
             }
         }
     });
     return out;
 }
 
-// Scales img's halves as suppress_outliers scaled another image's: the
-// parts of a radiance filtered apart lose what their sum's outliers lost.
-void scale_outliers(const Outliers& o, Image& img) {
+// Scales img's halves by the outliers' factors: those found in img itself,
+// or in the radiance img is a part of (the parts lose what their sum's
+// outliers lost).
+void apply_outliers(const Outliers& o, Image& img) {
     const size_t size = o.features.size();
     for (int half = 0; half < 2; ++half)
         for (int c = 0; c < 3; ++c) {
@@ -977,7 +985,7 @@ void select_candidates(const Image& img, const std::vector<const Halves*>& candi
     });
 }
 
-// The pixels suppress_outliers found bright in both halves take their own
+// The pixels find_outliers found bright in both halves take their own
 // (clipped) halves: filtering would spread them over their neighbours.
 void keep_features(const Image& img, const std::vector<uint8_t>& features, Halves& out) {
     for (size_t i = 0; i < features.size(); ++i)
@@ -1019,17 +1027,15 @@ bool read_image(const Film::Sums& sums, int width, int height, Image& img) {
     return true;
 }
 
-// The whole filter on one signal (img, read_image): outliers (found here,
-// or those of the signal's sum, `outliers`), the guide, the regressions
+// The whole filter on one signal (img, read_image): its outliers (found in
+// it, or in the radiance it is a part of) scaled, the guide, the regressions
 // (both candidates, or the larger patch's alone), their selection; the
 // filtered halves remodulated and added to fa, fb. False when cancelled.
-bool filter_signal(Image& img, const Outliers* outliers, const FilterParams& params, bool both_candidates, Run& run,
+bool filter_signal(Image& img, const Outliers& outliers, const FilterParams& params, bool both_candidates, Run& run,
                    std::vector<float>& fa, std::vector<float>& fb) {
     const size_t size = size_t(img.width) * size_t(img.height);
-    Outliers own;
-    if (outliers) scale_outliers(*outliers, img);
-    else own = suppress_outliers(img);
-    const std::vector<uint8_t>& features = outliers ? outliers->features : own.features;
+    apply_outliers(outliers, img);
+    const std::vector<uint8_t>& features = outliers.features;
     estimate_variances(img, kA, kB, kVarA, kVarB, true);
     for (int c = 0; c < 3; ++c) {
         img.planes[kGuideA + c] = img.planes[kA + c], img.planes[kGuideB + c] = img.planes[kB + c];
@@ -1167,13 +1173,14 @@ DenoiseResult denoise(const Film& film, const DenoiseOptions& options, const Den
     // filtered apart, the indirect rest, and the direct light where it
     // carries a large share of the noise (split_direct_light).
     const FilterParams dense(k, window, patch), wide(k, window, patch, ring_radius(width, height, options));
+    const float outlier_factor = options.caustics ? kOutlierFactor : kSparseLightOutlierFactor;
     std::vector<float> fa(3 * size, 0.0f), fb(3 * size, 0.0f);
     bool complete = false;
     tbb::task_arena arena(options.threads > 0 ? options.threads : tbb::task_arena::automatic);
     arena.execute([&] {
         if (!prefilter_albedo(sums, img, run)) return;
         if (!split.apart) {
-            complete = filter_signal(img, nullptr, wide, true, run, fa, fb);
+            complete = filter_signal(img, find_outliers(img, outlier_factor), wide, true, run, fa, fb);
             return;
         }
         // The outliers are the radiance's (where its sum is a firefly), as
@@ -1182,12 +1189,12 @@ DenoiseResult denoise(const Film& film, const DenoiseOptions& options, const Den
         // fixture's Cornell box against 1.3 %). One candidate each: two
         // filters then cost what one of two candidates does, and measured
         // no worse (docs/results/denoise.md).
-        const Outliers outliers = suppress_outliers(img);
+        const Outliers outliers = find_outliers(img, outlier_factor);
         for (const bool direct : {true, false}) {
             const PartSums part(sums, size, direct);
             read_part_halves(part.sums, img);
             const FilterParams& params = direct && !split.direct_ring ? dense : wide;
-            if (!filter_signal(img, &outliers, params, false, run, fa, fb)) return;
+            if (!filter_signal(img, outliers, params, false, run, fa, fb)) return;
         }
         complete = true;
     });

@@ -669,6 +669,7 @@ void Renderer::denoise_film(const std::function<bool(double)>& report) {
     const auto start = Clock::now();
     DenoiseOptions options;
     options.strength = settings_.denoise_strength;
+    options.caustics = features_.specular || features_.glass;
     options.threads = settings_.threads;
     options.cancel = &cancelled_;
     DenoiseResult result = denoise(film_, options, [&](double f) {
