@@ -1,9 +1,6 @@
 // glTF textures as shader programs. See gltf_textures.h.
 #include "gltf_textures.h"
 
-#include <OpenImageIO/filesystem.h>
-#include <OpenImageIO/imageio.h>
-
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
@@ -89,15 +86,8 @@ bool keep_encoded_image(tinygltf::Image* image, const int, std::string*, std::st
 }
 
 uint32_t TextureImporter::add_embedded(const tinygltf::Image& image, const std::string& label) {
-    TextureStore& store = store_of(scene_);
-    OIIO::Filesystem::IOMemReader reader(image.image.data(), image.image.size());
-    auto in = OIIO::ImageInput::open("embedded" + extension_for(image.mimeType), nullptr, &reader);
-    if (!in) return store.add_pixels(label, 0, 0, 4, nullptr);
-    const OIIO::ImageSpec& spec = in->spec();
-    std::vector<float> pixels(size_t(spec.width) * size_t(spec.height) * size_t(spec.nchannels));
-    const bool ok = in->read_image(0, 0, 0, spec.nchannels, OIIO::TypeDesc::FLOAT, pixels.data());
-    if (!ok || spec.nchannels < 1 || spec.nchannels > 4) return store.add_pixels(label, 0, 0, 4, nullptr);
-    return store.add_pixels(label, spec.width, spec.height, spec.nchannels, pixels.data());
+    return store_of(scene_).add_encoded(label, "embedded" + extension_for(image.mimeType), image.image.data(),
+                                        image.image.size());
 }
 
 uint32_t TextureImporter::image_index(int texture, bool& ok) {

@@ -4,6 +4,7 @@
 #include "image_filter.h"
 #include "memory_images.h"
 
+#include <OpenImageIO/filesystem.h>
 #include <OpenImageIO/imagecache.h>
 #include <OpenImageIO/imageio.h>
 #include <OpenImageIO/texture.h>
@@ -259,14 +260,20 @@ void associate_bytes(uint8_t* rgba, size_t texels) {
         for (int c = 0; c < 3; ++c) rgba[c] = uint8_t((unsigned(rgba[c]) * rgba[3]) / 255u);
 }
 
-// The file's first subimage at full resolution as RGBA texels; null when it
-// cannot be read or would take more than `max_bytes` (the caller then falls
-// back to the TextureSystem, which reports an unreadable file). `associate`:
-// a byte file's colour is associated with its alpha.
-std::shared_ptr<PixelBuffer> decode_image_file(const std::string& path, size_t max_bytes, bool associate) {
+// An image's first subimage at full resolution as RGBA texels, read from the
+// file `name` or, with `proxy`, from the bytes it holds (`name`'s extension
+// then picks the format); null when it cannot be read or would take more
+// than `max_bytes` (for a file the caller then falls back to the
+// TextureSystem, which reports why). Alpha is read as stored (straight in a
+// PNG), as the TextureSystem's "unassociatedalpha" reads it; `associate`: a
+// byte image's colour is then associated with its alpha.
+std::shared_ptr<PixelBuffer> decode_image(const std::string& name, OIIO::Filesystem::IOProxy* proxy, size_t max_bytes,
+                                          bool associate) {
     OIIO::ImageSpec config;
-    config.attribute("oiio:UnassociatedAlpha", 1);  // as the TextureSystem's "unassociatedalpha"
-    auto in = OIIO::ImageInput::open(path, &config);
+    config.attribute("oiio:UnassociatedAlpha", 1);
+    // With a configuration OpenImageIO 2.4 reads the proxy from it, not from open()'s argument.
+    if (proxy) config.attribute("oiio:ioproxy", OIIO::TypeDesc::PTR, &proxy);
+    auto in = OIIO::ImageInput::open(name, &config, proxy);
     if (!in) {
         (void)OIIO::geterror();
         return nullptr;
@@ -315,10 +322,18 @@ bool TextureStore::add_decoded_file(const std::string& path, const std::string& 
     const size_t used = buffer_bytes();
     if (used >= cache_bytes_limit_ && !associate) return false;
     const size_t room = associate ? SIZE_MAX : cache_bytes_limit_ - used;
-    std::shared_ptr<PixelBuffer> buffer = decode_image_file(path, room, associate);
+    std::shared_ptr<PixelBuffer> buffer = decode_image(path, nullptr, room, associate);
     if (!buffer) return false;
     index = add_buffer(label, std::move(buffer), key);
     return true;
+}
+
+uint32_t TextureStore::add_encoded(const std::string& label, const std::string& name, const uint8_t* bytes,
+                                   size_t size) {
+    OIIO::Filesystem::IOMemReader reader(bytes, size);
+    std::shared_ptr<PixelBuffer> buffer = bytes && size ? decode_image(name, &reader, SIZE_MAX, false) : nullptr;
+    if (!buffer) return add_bytes(label, 0, 0, 0, nullptr);
+    return add_buffer(label, std::move(buffer), "");
 }
 
 bool TextureStore::add_retained(const std::string& label, const std::string& key, uint32_t& index) {

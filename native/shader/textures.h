@@ -75,6 +75,10 @@ public:
     // A non-empty `key` ("identity\nversion", see memory_images.h) retains the copy.
     uint32_t add_pixels(const std::string& label, int width, int height, int channels, const float* pixels,
                         const std::string& key = "");
+    // An encoded image held in memory (a PNG's or JPEG's bytes, as a .glb
+    // embeds them; `name`'s extension picks the format), decoded as add_file
+    // decodes a file: RGBA, alpha as stored. Undecodable bytes render magenta.
+    uint32_t add_encoded(const std::string& label, const std::string& name, const uint8_t* bytes, size_t size);
     // The same for byte pixels, read as value / 255.
     uint32_t add_bytes(const std::string& label, int width, int height, int channels, const uint8_t* pixels,
                         const std::string& key = "");

@@ -6,11 +6,14 @@
 
 #include <OpenImageIO/imageio.h>
 
+#include <fstream>
+#include <iterator>
 #include <string>
 #include <vector>
 
 #include "io/gltf.h"
 #include "render/renderer.h"
+#include "shader/textures.h"
 #include "test_gltf_util.h"
 
 using namespace coherent;
@@ -129,4 +132,53 @@ TEST(GltfAlpha, MaskedTextureAlphaCutsTheSurfaceOut) {
         EXPECT_EQ(rgba[size_t(4 * (y * 8 + 6) + 3)], 1.0f) << "row " << y;  // kept
         EXPECT_GT(rgba[size_t(4 * (y * 8 + 6))], 0.1f) << "row " << y;     // lit by the white world
     }
+}
+
+// An image embedded in the glTF's buffer and the same PNG beside it, by URI,
+// are decoded alike: straight colour (as stored, which the base colour's
+// program then premultiplies or keeps by whether alpha is used), where
+// OpenImageIO's default read of the embedded bytes had associated it (the
+// colour of a half-transparent texel halved, then premultiplied again).
+TEST(GltfAlpha, EmbeddedAndReferencedImagesKeepTheirStraightColour) {
+    TempDir dir;
+    const int n = 4;
+    std::vector<uint8_t> px(size_t(n * n * 4));
+    for (size_t i = 0; i < px.size(); i += 4) px[i] = 200, px[i + 1] = uint8_t(i * 3), px[i + 2] = 40, px[i + 3] = 128;
+    const std::string png = (dir.path / "straight.png").string();
+    auto out = OIIO::ImageOutput::create(png);
+    OIIO::ImageSpec spec(n, n, 4, OIIO::TypeDesc::UINT8);
+    spec.attribute("oiio:UnassociatedAlpha", 1);  // store the values as given
+    ASSERT_TRUE(out && out->open(png, spec));
+    ASSERT_TRUE(out->write_image(OIIO::TypeDesc::UINT8, px.data()));
+    out->close();
+    std::ifstream file(png, std::ios::binary);
+    const std::string encoded((std::istreambuf_iterator<char>(file)), std::istreambuf_iterator<char>());
+    ASSERT_FALSE(encoded.empty());
+
+    const nlohmann::json material = {{"pbrMetallicRoughness", {{"baseColorTexture", {{"index", 0}}}}}};
+    GltfBuilder embedded = quad_with_material(material), referenced = quad_with_material(material);
+    embedded.doc["images"] = {{{"bufferView", embedded.add_view(encoded.data(), encoded.size())},
+                               {"mimeType", "image/png"}}};
+    referenced.doc["images"] = {{{"uri", "straight.png"}}};
+    std::vector<std::vector<float>> texels;
+    for (GltfBuilder* b : {&embedded, &referenced}) {
+        b->doc["textures"] = {{{"source", 0}}};
+        Scene scene;
+        const GltfLoadResult r = load_gltf(b->write(dir.path, b == &embedded ? "embedded.gltf" : "referenced.gltf"), scene);
+        ASSERT_TRUE(r.ok) << r.error;
+        ASSERT_TRUE(scene.shading.textures && scene.shading.textures->size() == 1);
+        for (const std::string& w : scene.shading.textures->warnings()) ADD_FAILURE() << w;
+        std::vector<float> t;
+        TextureLookup closest;
+        closest.interp = TextureLookup::Interp::Closest;
+        for (int y = 0; y < n; ++y)
+            for (int x = 0; x < n; ++x) {
+                float c[4];
+                scene.shading.textures->lookup(0, (x + 0.5f) / n, (n - 1 - y + 0.5f) / n, closest, c);
+                t.insert(t.end(), c, c + 4);
+            }
+        texels.push_back(t);
+    }
+    EXPECT_EQ(texels[0], texels[1]);
+    for (size_t i = 0; i < px.size(); ++i) EXPECT_FLOAT_EQ(texels[0][i], px[i] / 255.0f) << "value " << i;
 }
