@@ -21,12 +21,12 @@ pixels: the packed bytes' hash, the generator's settings, or the pixels'
 hash), so a later render of an unchanged image reuses the native copy and
 its cached tiles instead of handing it over again.
 
-Straight-alpha colour byte images are associated here, texel by texel, as
-Cycles does when it loads them (BlenderImageLoader for packed and generated
-images, OIIOImageLoader for files: c = c * a / 255 in integers, truncated),
-so filtering sees the texels Cycles filters; the Image Texture node
-unassociates after filtering when its Alpha output is used. A file is
-associated the same way where the native side decodes it (associate=True).
+Straight-alpha colour byte images are associated natively on the way in
+(add_image(associate=True)), texel by texel, as Cycles does when it loads
+them (BlenderImageLoader for packed and generated images, OIIOImageLoader
+for files: c = c * a / 255 in integers, truncated), so filtering sees the
+texels Cycles filters; the Image Texture node unassociates after filtering
+when its Alpha output is used.
 Float images need nothing: Blender holds float pixels associated already.
 Data (Non-Color), Channel Packed and None images stay as stored.
 """
@@ -87,15 +87,6 @@ def _associated_on_load(image, is_float, channels):
     """Whether Cycles associates this image's texels when it loads them: a straight byte colour image."""
     return (image.alpha_mode == "STRAIGHT" and not is_float and channels == 4
             and image.colorspace_settings.name not in DATA_COLORSPACES)
-
-
-def associate_bytes(pixels):
-    """Cycles' association of straight byte texels, in place: c = c * a / 255, truncated."""
-    rgb = pixels[..., :3].astype(np.uint16)
-    rgb *= pixels[..., 3:4]
-    rgb //= 255
-    pixels[..., :3] = rgb
-    return pixels
 
 
 def _digest(data, content_hash=None):
@@ -184,14 +175,14 @@ class ImageExporter:
             if index is not None:
                 return index
         pixels = image_pixels(image)
-        if associate and pixels.dtype == np.uint8 and pixels.ndim == 3 and pixels.shape[2] == 4:
-            associate_bytes(pixels)
+        associate = associate and pixels.dtype == np.uint8 and pixels.ndim == 3 and pixels.shape[2] == 4
         if version is None:  # no cheaper signal of a change than the pixels themselves
-            key = f"{_identity(image)}\npixels {pixels.shape} {pixels.dtype} {_digest(pixels, self.content_hash)}"
+            key = (f"{_identity(image)}\npixels {pixels.shape} {pixels.dtype} {_digest(pixels, self.content_hash)}"
+                   f"{' associated' if associate else ''}")
             index = self.scene.add_retained_image(label, key)
             if index is not None:
                 return index
-        return self.scene.add_image(label, pixels=pixels, key=key if pixels.size else "")
+        return self.scene.add_image(label, pixels=pixels, key=key if pixels.size else "", associate=associate)
 
 
 def _version(image, path=None, content_hash=None):

@@ -93,7 +93,7 @@ TextureStore& texture_store(PyScene& self) {
 
 // pixels: uint8 (H, W, C) stays bytes; anything else is read as float.
 uint32_t add_pixel_image(TextureStore& store, const std::string& label, const py::handle& pixels,
-                         const std::string& key) {
+                         const std::string& key, bool associate) {
     using ByteArray = py::array_t<uint8_t, py::array::c_style>;
     bool bytes = false;
     if (py::isinstance<py::array>(pixels)) {
@@ -106,7 +106,8 @@ uint32_t add_pixel_image(TextureStore& store, const std::string& label, const py
     if (channels < 1 || channels > 4) throw py::value_error("pixels: expected 1 to 4 channels");
     const int width = int(a.shape(1)), height = int(a.shape(0));
     py::gil_scoped_release unlocked;
-    if (bytes) return store.add_bytes(label, width, height, channels, static_cast<const uint8_t*>(a.data()), key);
+    if (bytes)
+        return store.add_bytes(label, width, height, channels, static_cast<const uint8_t*>(a.data()), key, associate);
     return store.add_pixels(label, width, height, channels, static_cast<const float*>(a.data()), key);
 }
 
@@ -114,7 +115,7 @@ uint32_t add_image(PyScene& self, const std::string& label, const py::handle& pa
                    const std::string& key, bool associate) {
     self.check_mutable("add_image");
     TextureStore& store = texture_store(self);
-    if (!pixels.is_none()) return add_pixel_image(store, label, pixels, key);
+    if (!pixels.is_none()) return add_pixel_image(store, label, pixels, key, associate);
     if (path.is_none()) throw py::value_error("add_image: give a path or pixels");
     const std::string file = path.cast<std::string>();
     py::gil_scoped_release unlocked;
@@ -231,10 +232,11 @@ the colour attributes (by name, in the order add_mesh's `colors` lists them).)do
               py::arg("pixels") = py::none(), py::arg("key") = "", py::arg("associate") = false,
               R"doc(Adds an image for Image Texture instructions; returns its index.
 path: an image file OpenImageIO reads (decoded whole while the texture memory
-limit allows, else read through its texture cache; associate=True: a straight
-byte colour file whose colour Cycles associates with its alpha on load, decoded
-whole and associated); or pixels: (H, W, C) with C in 1..4, first row at the
-top, uint8 (kept as bytes, read as value / 255) or float.
+limit allows, else read through its texture cache); or pixels: (H, W, C) with
+C in 1..4, first row at the top, uint8 (kept as bytes, read as value / 255) or
+float. associate=True: a straight byte colour image (a file, or RGBA uint8
+pixels) whose colour Cycles associates with its alpha on load (c * a / 255,
+truncated), associated here the same way.
 key ("identity\nversion"): the pixels are retained after this scene goes, for
 add_retained_image. An unreadable or empty image renders magenta and is listed
 in texture_stats()['warnings'] under `label`.)doc");

@@ -42,6 +42,13 @@ std::shared_ptr<PixelBuffer> new_buffer(int width, int height, int channels, boo
     return buffer;
 }
 
+// Cycles' association of straight byte texels on load (BlenderImageLoader,
+// OIIOImageLoader): c = c * a / 255 in integers, truncated.
+void associate_bytes(uint8_t* rgba, size_t texels) {
+    for (size_t i = 0; i < texels; ++i, rgba += 4)
+        for (int c = 0; c < 3; ++c) rgba[c] = uint8_t((unsigned(rgba[c]) * rgba[3]) / 255u);
+}
+
 std::string one_line(std::string s) {
     for (char& c : s)
         if (c == '\n') c = ' ';
@@ -220,7 +227,7 @@ uint32_t TextureStore::add_pixels(const std::string& label, int width, int heigh
 }
 
 uint32_t TextureStore::add_bytes(const std::string& label, int width, int height, int channels,
-                                 const uint8_t* pixels, const std::string& key) {
+                                 const uint8_t* pixels, const std::string& key, bool associate) {
     if (width <= 0 || height <= 0 || channels <= 0 || !pixels) {
         {
             std::lock_guard<std::mutex> lock(warn_mutex_);
@@ -233,6 +240,7 @@ uint32_t TextureStore::add_bytes(const std::string& label, int width, int height
     }
     auto buffer = new_buffer(width, height, channels, false);
     std::memcpy(buffer->bytes.data(), pixels, buffer->bytes.size());
+    if (associate && channels == 4) associate_bytes(buffer->bytes.data(), size_t(width) * size_t(height));
     return add_buffer(label, std::move(buffer), key);
 }
 
@@ -251,13 +259,6 @@ void expand_to_rgba(const T* in, int channels, size_t texels, T opaque, T* out) 
         else out[0] = in[0], out[1] = in[1], out[2] = in[2];
         out[3] = channels == 2 ? in[1] : (channels >= 4 ? in[3] : opaque);
     }
-}
-
-// Cycles' association of straight byte texels on load (BlenderImageLoader,
-// OIIOImageLoader): c = c * a / 255 in integers, truncated.
-void associate_bytes(uint8_t* rgba, size_t texels) {
-    for (size_t i = 0; i < texels; ++i, rgba += 4)
-        for (int c = 0; c < 3; ++c) rgba[c] = uint8_t((unsigned(rgba[c]) * rgba[3]) / 255u);
 }
 
 // An image's first subimage at full resolution as RGBA texels, read from the

@@ -79,9 +79,11 @@ public:
     // embeds them; `name`'s extension picks the format), decoded as add_file
     // decodes a file: RGBA, alpha as stored. Undecodable bytes render magenta.
     uint32_t add_encoded(const std::string& label, const std::string& name, const uint8_t* bytes, size_t size);
-    // The same for byte pixels, read as value / 255.
+    // The same for byte pixels, read as value / 255. `associate`: RGBA texels
+    // whose colour Cycles associates with their alpha on load (c * a / 255,
+    // truncated), as add_file's.
     uint32_t add_bytes(const std::string& label, int width, int height, int channels, const uint8_t* pixels,
-                        const std::string& key = "");
+                       const std::string& key = "", bool associate = false);
     // Adds the in-memory image retained under `key` by an earlier add; false
     // (nothing added) when none is held.
     bool add_retained(const std::string& label, const std::string& key, uint32_t& index);

@@ -407,8 +407,8 @@ TEST(ImageFiles, AFileBeyondTheMemoryLimitGoesThroughTheTextureCache) {
 }
 
 // A straight byte colour file is associated as Cycles associates it on load
-// (c * a / 255 in integers, truncated), every texel, when asked to; its
-// alpha and a file without alpha stay as stored.
+// (c * a / 255 in integers, truncated), every texel, when asked to, and so
+// are the same bytes handed over as pixels; alpha stays as stored.
 TEST(ImageFiles, AStraightColourFileIsAssociatedAsCyclesLoadsIt) {
     const int w = 9, h = 5;
     const std::string path = temp_image_path("straight.png");
@@ -416,15 +416,18 @@ TEST(ImageFiles, AStraightColourFileIsAssociatedAsCyclesLoadsIt) {
     write_image(path, w, h, 4, OIIO::TypeDesc::UINT8, bytes.data());
     TextureStore store(64);
     const uint32_t associated = store.add_file(path, "associated", true), straight = store.add_file(path, "straight");
+    const uint32_t handed_over = store.add_bytes("pixels", w, h, 4, bytes.data(), "", true);  // Blender's pixels
     TextureLookup closest;
     closest.interp = Interp::Closest;
     for (int y = 0; y < h; ++y)
         for (int x = 0; x < w; ++x) {
             const uint8_t* t = &bytes[(size_t(y) * w + x) * 4];  // row y from the top
             const float u = (x + 0.5f) / w, v = (h - 1 - y + 0.5f) / h;
-            float a[4], s[4];
+            float a[4], s[4], p[4];
             store.lookup(associated, u, v, closest, a);
             store.lookup(straight, u, v, closest, s);
+            store.lookup(handed_over, u, v, closest, p);
+            for (int c = 0; c < 4; ++c) EXPECT_EQ(p[c], a[c]) << x << ", " << y << " channel " << c;
             for (int c = 0; c < 3; ++c) {
                 EXPECT_FLOAT_EQ(a[c], float((unsigned(t[c]) * t[3]) / 255u) / 255.0f) << x << ", " << y << " channel " << c;
                 EXPECT_FLOAT_EQ(s[c], float(t[c]) / 255.0f);
