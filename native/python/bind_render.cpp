@@ -399,8 +399,7 @@ private:
         if (between_passes && settings_.denoise && power_of_two && samples_done < settings_.spp) {
             DenoiseOptions options;
             options.strength = settings_.denoise_strength;
-            const SceneFeatures& features = renderer_->active_features();
-            options.caustics = features.specular || features.glass;
+            options.caustics = renderer_->active_features().can_make_caustics();
             options.threads = settings_.threads;
             options.window_radius = kViewportWindowRadius;
             options.ring_radius = 0;

@@ -612,6 +612,7 @@ bool Renderer::render(const ProgressCallback& progress) {
     // Distributing samples, passes go on until the pixels with the most
     // samples have them; spp stays the mean (sample_distribution.h).
     const bool distribute = settings_.distributes_samples();
+    const int uniform_passes = SampleDistribution::uniform_passes(spp, features_.can_make_caustics());
     int passes = spp;  // distributing: the largest count, once decided
 
     tbb::task_arena arena(settings_.threads > 0 ? settings_.threads : tbb::task_arena::automatic);
@@ -651,7 +652,7 @@ bool Renderer::render(const ProgressCallback& progress) {
                                              : int(std::lround(double(stats_.samples) / double(stats_.pixels)));
         // O(pixels), once per batch.
         if (done >= 2 && settings_.error_estimated()) stats_.error_estimate = film_.relative_rmse_estimate();
-        if (distribute && sample_targets_.empty() && done == SampleDistribution::uniform_passes(spp)) {
+        if (distribute && sample_targets_.empty() && done == uniform_passes) {
             sample_targets_ = SampleDistribution::targets(film_, spp);
             passes = int(*std::max_element(sample_targets_.begin(), sample_targets_.end()));
         }
@@ -669,7 +670,7 @@ void Renderer::denoise_film(const std::function<bool(double)>& report) {
     const auto start = Clock::now();
     DenoiseOptions options;
     options.strength = settings_.denoise_strength;
-    options.caustics = features_.specular || features_.glass;
+    options.caustics = features_.can_make_caustics();
     options.threads = settings_.threads;
     options.cancel = &cancelled_;
     DenoiseResult result = denoise(film_, options, [&](double f) {
@@ -730,7 +731,7 @@ int Renderer::batch_size(int done, int spp, double seconds_per_pass, double elap
     count = std::min(count, std::max(2, done / 2));
     if (settings_.distributes_samples()) {
         // A batch ends at the decision.
-        const int uniform = SampleDistribution::uniform_passes(settings_.spp);
+        const int uniform = SampleDistribution::uniform_passes(settings_.spp, features_.can_make_caustics());
         if (done < uniform) count = std::min(count, uniform - done);
     }
     if (settings_.adaptive) {

@@ -8,8 +8,9 @@
 // pixel's own samples, so that error falls only as the pixel takes more
 // samples. Measured on the glTF scenes at 512 x 512 and 16 spp, 1 % of the
 // pixels carried 54-92 % of the denoised image's squared error
-// (docs/results/denoise.md), so a render of a fixed budget takes half of it
-// in every pixel and gives the rest where the error the denoiser will leave
+// (docs/results/denoise.md), so a render of a fixed budget takes a part of
+// it in every pixel (uniform_passes: a quarter, or half where the scene can
+// make caustics) and gives the rest where the error the denoiser will leave
 // is highest, the same number of samples in all (Rousselle et al. 2012 and
 // most adaptive denoising renderers work this way).
 //
@@ -45,9 +46,16 @@
 namespace coherent {
 
 struct SampleDistribution {
-    // Passes every pixel takes before the decision: half the budget,
-    // rounded down to an even count (both halves equal), at least 2.
-    static int uniform_passes(int spp) { return std::max(2, (spp / 2) & ~1); }
+    // Passes every pixel takes before the decision, rounded down to an even
+    // count (both halves equal), at least 2: a quarter of the budget, or
+    // half where the scene can make caustics (SceneFeatures::
+    // can_make_caustics). At 512 x 512 and 16 spp a quarter lowered the
+    // denoised error of the ten scenes without a mirror or glass lobe by
+    // 1-10 % (Sponza 0.0384 -> 0.0360, the bunny 0.0190 -> 0.0170), but a
+    // caustic's fireflies, seen in 4 samples a pixel, drew the samples
+    // after them: the glass scene 0.154 -> 0.510, the fixture's Cornell box
+    // +9 % (docs/results/denoise.md, twenty-first session).
+    static int uniform_passes(int spp, bool caustics) { return std::max(2, (spp / (caustics ? 2 : 4)) & ~1); }
     // No pixel takes more than this many times the budget: the passes run
     // until the largest count, and the error of a pixel falls little past it.
     static constexpr int kMaxFactor = 16;
@@ -81,7 +89,7 @@ struct SampleDistribution {
     // Per film pixel (row-major), the sample count each should reach: even,
     // at least the count it has, at most pass_limit(spp), summing to about
     // spp x pixels (within rounding to even counts). Called after
-    // uniform_passes(spp) passes over the whole film. Where no pixel has any
+    // uniform_passes(spp, ...) passes over the whole film. Where no pixel has any
     // variance to spend on (a black image), every pixel gets spp.
     static std::vector<uint32_t> targets(const Film& film, int spp);
 };

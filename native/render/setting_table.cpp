@@ -160,9 +160,10 @@ std::vector<SettingSpec> sampling_rows() {
                      "how different (in units of the estimated noise) neighbouring pixels may be and still be "
                      "averaged; higher is smoother, 0 keeps only pixels identical within noise"));
     t.push_back(flag("distribute_samples", "Distribute Samples", "Sampling", &RenderSettings::distribute_samples,
-                     "when denoising a render of a fixed sample count: every pixel takes half of the samples, and "
-                     "the other half go where the denoiser is predicted to leave the most error (edges, fine "
-                     "texture, small lights), the same samples per pixel on average (SPT sampler)"));
+                     "when denoising a render of a fixed sample count: every pixel takes a quarter of the samples "
+                     "(half in scenes with mirror or glass, whose caustics would mislead an early decision), and the "
+                     "rest go where the denoiser is predicted to leave the most error (edges, fine texture, small "
+                     "lights), the same samples per pixel on average (SPT sampler)"));
     t.push_back(flag("denoising_data", "Denoising Data", "Sampling", &RenderSettings::denoising_data,
                      "fill the 'Denoising Albedo', 'Denoising Normal' and 'Denoising Depth' passes (also filled "
                      "when denoising)"));

@@ -139,9 +139,10 @@ struct RenderSettings {
     bool denoise = false;
     float denoise_strength = 1.0f;
     bool denoising_data = false;
-    // A denoised final render of a fixed sample count takes half of its
-    // samples in every pixel and distributes the other half by the error the
-    // denoiser is predicted to leave, spp per pixel on average
+    // A denoised final render of a fixed sample count takes a quarter of its
+    // samples in every pixel (half where the scene can make caustics) and
+    // distributes the rest by the error the denoiser is predicted to leave,
+    // spp per pixel on average
     // (render/sample_distribution.h). Only where the count is fixed (no
     // error target, time limit or progressive display) and with SPT, whose
     // pixels' random numbers are independent.

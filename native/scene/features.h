@@ -35,6 +35,11 @@ struct SceneFeatures {
     bool any_light() const {
         return emissive_meshes || point_lights || spot_lights || sun_lights || area_lights || world_light;
     }
+    // A path can reach a light through a mirror or glass lobe after a
+    // diffuse bounce: a caustic, the rarest and brightest kind of sample.
+    // Where it can, the denoiser clips outliers lower and Distribute Samples
+    // decides later (denoiser.h, sample_distribution.h).
+    bool can_make_caustics() const { return specular || glass; }
     // Names of the enabled features, for statistics and reports.
     std::vector<std::string> names() const;
     // Every feature on: used to measure what specialisation buys.

@@ -1,6 +1,6 @@
 // Distributing a denoised render's samples (RenderSettings::distribute_samples,
 // render/sample_distribution.h). The properties tested: the budget holds
-// (spp samples per pixel on average, every pixel at least the uniform half,
+// (spp samples per pixel on average, every pixel at least the uniform part,
 // none past the cap, counts even); more samples go where the denoiser is
 // predicted to leave error (the emitter's edge, not the black background);
 // the noisy image stays unbiased (the counts are decided from each pixel's
@@ -90,7 +90,8 @@ TEST(SampleDistribution, KeepsTheBudgetAndSamplesWhereTheDenoiserLeavesError) {
     EXPECT_NEAR(mean, 16.0, 0.25);  // within the rounding of counts to even numbers
     EXPECT_EQ(r.stats().spp, 16);
     EXPECT_EQ(r.stats().samples, total);
-    EXPECT_EQ(fewest, uint32_t(SampleDistribution::uniform_passes(16)));
+    ASSERT_TRUE(r.active_features().can_make_caustics());  // glass and a mirror
+    EXPECT_EQ(fewest, uint32_t(SampleDistribution::uniform_passes(16, true)));
     EXPECT_LE(most, uint32_t(SampleDistribution::pass_limit(16)));
     EXPECT_GT(most, 64u) << "no pixel got much more than the budget: nothing was distributed";
     // The brightest pixels (the light, highlights, the glass) must be sampled
@@ -110,6 +111,35 @@ TEST(SampleDistribution, KeepsTheBudgetAndSamplesWhereTheDenoiserLeavesError) {
     EXPECT_GT(bright / bright_n, 2.0 * dark / dark_n);
     const std::vector<float> img = film.resolve(PassType::Combined);
     for (float v : img) ASSERT_TRUE(std::isfinite(v));
+}
+
+// The decision comes after a quarter of the budget where no caustic can
+// mislead it, after half where one can (uniform_passes); counts stay even.
+TEST(SampleDistribution, DecidesAfterAQuarterOfTheBudgetWithoutCaustics) {
+    EXPECT_EQ(SampleDistribution::uniform_passes(16, false), 4);
+    EXPECT_EQ(SampleDistribution::uniform_passes(16, true), 8);
+    EXPECT_EQ(SampleDistribution::uniform_passes(24, false), 6);
+    EXPECT_EQ(SampleDistribution::uniform_passes(20, false), 4);  // 5, rounded down to even
+    EXPECT_EQ(SampleDistribution::uniform_passes(4, false), 2);   // never fewer than both halves need
+    EXPECT_EQ(SampleDistribution::uniform_passes(4, true), 2);
+    // A diffuse scene: some pixels keep fewer samples than half the budget,
+    // none fewer than a quarter.
+    const Scene scene = test::sphere_on_floor_scene();
+    RenderSettings rs = settings(true, 16, 5);
+    rs.width = rs.height = 48;
+    Renderer r(scene, rs);
+    ASSERT_TRUE(r.render());
+    ASSERT_FALSE(r.active_features().can_make_caustics());
+    uint32_t fewest = ~0u;
+    uint64_t total = 0;
+    for (int y = 0; y < rs.height; ++y)
+        for (int x = 0; x < rs.width; ++x) {
+            fewest = std::min(fewest, r.film().samples_at(x, y));
+            total += r.film().samples_at(x, y);
+        }
+    std::printf("diffuse scene: fewest %u, mean %.2f spp\n", fewest, double(total) / (rs.width * rs.height));
+    EXPECT_EQ(fewest, 4u);
+    EXPECT_NEAR(double(total) / (rs.width * rs.height), 16.0, 0.25);
 }
 
 // As the film's mean of each pixel is taken over a count decided by its
