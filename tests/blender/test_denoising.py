@@ -29,7 +29,8 @@ PERCENT = 10
 # All with SPT: the sampler Auto picks when denoising (sample/sampler_type.h),
 # so the noisy renders are the denoised ones' inputs, seed for seed.
 # d16 and d64 distribute their samples (Distribute Samples, on by default:
-# half in every pixel, the rest where the denoiser leaves error); d16u does
+# a quarter in every pixel, half in the glass scene, the rest where the
+# denoiser leaves error); d16u does
 # not, so its Noisy Image is n16's samples.
 RENDERS = [f"{spec}:1:spt" for spec in
            ("refa:512:101:0", "refb:512:202:0", "n16:16:7:0", "d16:16:7:1", "d64:64:7:1", "n256:256:7:0")]
