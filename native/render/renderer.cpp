@@ -612,7 +612,6 @@ bool Renderer::render(const ProgressCallback& progress) {
     // Distributing samples, passes go on until the pixels with the most
     // samples have them; spp stays the mean (sample_distribution.h).
     const bool distribute = settings_.distributes_samples();
-    const int uniform_passes = SampleDistribution::uniform_passes(spp, features_.can_make_caustics());
     int passes = spp;  // distributing: the largest count, once decided
 
     tbb::task_arena arena(settings_.threads > 0 ? settings_.threads : tbb::task_arena::automatic);
@@ -652,7 +651,7 @@ bool Renderer::render(const ProgressCallback& progress) {
                                              : int(std::lround(double(stats_.samples) / double(stats_.pixels)));
         // O(pixels), once per batch.
         if (done >= 2 && settings_.error_estimated()) stats_.error_estimate = film_.relative_rmse_estimate();
-        if (distribute && sample_targets_.empty() && done == uniform_passes) {
+        if (distribute && sample_targets_.empty() && done == uniform_passes()) {
             sample_targets_ = SampleDistribution::targets(film_, spp);
             passes = int(*std::max_element(sample_targets_.begin(), sample_targets_.end()));
         }
@@ -715,6 +714,10 @@ bool Renderer::stop_after_pass(int passes_done, int spp) {
     return settings_.time_limit > 0.0 && stats_.seconds >= settings_.time_limit;
 }
 
+int Renderer::uniform_passes() const {
+    return SampleDistribution::uniform_passes(std::max(settings_.spp, 0), features_.can_make_caustics());
+}
+
 int Renderer::first_adaptive_decision() const {
     return std::max(2, settings_.adaptive_min_samples + (settings_.adaptive_min_samples & 1));
 }
@@ -731,8 +734,7 @@ int Renderer::batch_size(int done, int spp, double seconds_per_pass, double elap
     count = std::min(count, std::max(2, done / 2));
     if (settings_.distributes_samples()) {
         // A batch ends at the decision.
-        const int uniform = SampleDistribution::uniform_passes(settings_.spp, features_.can_make_caustics());
-        if (done < uniform) count = std::min(count, uniform - done);
+        if (done < uniform_passes()) count = std::min(count, uniform_passes() - done);
     }
     if (settings_.adaptive) {
         const int first_decision = first_adaptive_decision();

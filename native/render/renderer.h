@@ -108,6 +108,8 @@ private:
     // The pass count of adaptive sampling's first decision: adaptive_min_samples
     // rounded up to even, at least 2.
     int first_adaptive_decision() const;
+    // Distributing samples: the passes every pixel takes before the decision.
+    int uniform_passes() const;
     // Denoises the film (settings.denoise); report(fraction) returns false to cancel.
     void denoise_film(const std::function<bool(double)>& report);
     std::atomic<bool> cancelled_{false};

@@ -51,7 +51,7 @@ struct SampleDistribution {
     // half where the scene can make caustics (SceneFeatures::
     // can_make_caustics). At 512 x 512 and 16 spp a quarter lowered the
     // denoised error of the ten scenes without a mirror or glass lobe by
-    // 1-10 % (Sponza 0.0384 -> 0.0360, the bunny 0.0190 -> 0.0170), but a
+    // 0-11 % (Sponza 0.0384 -> 0.0360, the bunny 0.0190 -> 0.0170), but a
     // caustic's fireflies, seen in 4 samples a pixel, drew the samples
     // after them: the glass scene 0.154 -> 0.510, the fixture's Cornell box
     // +9 % (docs/results/denoise.md, twenty-first session).
@@ -89,8 +89,8 @@ struct SampleDistribution {
     // Per film pixel (row-major), the sample count each should reach: even,
     // at least the count it has, at most pass_limit(spp), summing to about
     // spp x pixels (within rounding to even counts). Called after
-    // uniform_passes(spp, ...) passes over the whole film. Where no pixel has any
-    // variance to spend on (a black image), every pixel gets spp.
+    // uniform_passes(spp, ...) passes over the whole film. Where no pixel
+    // has any variance to spend on (a black image), every pixel gets spp.
     static std::vector<uint32_t> targets(const Film& film, int spp);
 };
 
