@@ -69,8 +69,8 @@ struct DenoiseOptions {
     // window would cost 7.7x the 9 x 9 one, the ring 1.5x.
     int ring_radius = 12;
     int patch_radius = 3;   // patch (2f+1)^2 of the colour distance
-    // Whether the scene has a mirror or glass lobe (SceneFeatures::specular,
-    // glass), through which a path can reach a light as a caustic: the
+    // Whether the scene has a mirror or glass lobe (SceneFeatures::
+    // can_make_caustics), through which a path can reach a light as a caustic: the
     // rarest, brightest paths, clipped at a lower outlier level
     // (denoiser.cpp, find_outliers). True when unknown.
     bool caustics = true;

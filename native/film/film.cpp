@@ -311,13 +311,7 @@ bool pixel_error_sq(const float* sum, const float* sum_odd, uint32_t n, uint32_t
     const uint32_t n_even = n - n_odd;
     out = 0.0;
     if (n_odd == 0 || n_even == 0) return false;
-    const double scale = double(n_even) * double(n_odd) / (double(n) * double(n));
-    for (int c = 0; c < 3; ++c) {
-        const double even_mean = (double(sum[c]) - double(sum_odd[c])) / double(n_even);
-        const double odd_mean = double(sum_odd[c]) / double(n_odd);
-        const double diff = even_mean - odd_mean;
-        out += diff * diff * scale;
-    }
+    for (int c = 0; c < 3; ++c) out += halves_mean_variance(sum[c], sum_odd[c], n, n_odd);
     return true;
 }
 

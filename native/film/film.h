@@ -53,6 +53,15 @@ struct PassInfo {
 
 const PassInfo& pass_info(PassType t);
 
+// d^2 of one channel (Film::pixel_error): the variance of a mean of n
+// samples estimated from the sums over all of them (`sum`) and over the
+// n_odd odd ones (`sum_odd`). Needs both halves: 0 < n_odd < n.
+inline double halves_mean_variance(double sum, double sum_odd, double n, double n_odd) {
+    const double n_even = n - n_odd;
+    const double d = (sum - sum_odd) / n_even - sum_odd / n_odd;
+    return d * d * (n_even * n_odd / (n * n));
+}
+
 class Film {
 public:
     Film() = default;

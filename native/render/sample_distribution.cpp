@@ -20,15 +20,6 @@ double illumination(const Film::Sums& s, size_t i, int c) {
 // Whether a pixel's samples fill both halves (even and odd passes).
 bool has_halves(const Film::Sums& s, size_t i) { return s.count_odd[i] >= 1 && s.count[i] - s.count_odd[i] >= 1; }
 
-// Variance of a pixel's mean of n samples from the difference of its even
-// and odd halves' means (film.h): `sum` over all n samples, `odd` over the
-// n_odd odd ones. Needs has_halves().
-double mean_variance(double sum, double odd, double n, double n_odd) {
-    const double n_even = n - n_odd;
-    const double d = (sum - odd) / n_even - odd / n_odd;
-    return d * d * (n_even * n_odd / (n * n));
-}
-
 // Per-sample variance of what the denoiser keeps of pixel i's noise
 // (sample_distribution.h), 0 where the pixel lacks a half.
 double kept_variance(const Film::Sums& s, size_t i) {
@@ -36,12 +27,14 @@ double kept_variance(const Film::Sums& s, size_t i) {
     const double n = s.count[i], n_odd = s.count_odd[i];
     double v = 0.0;
     for (int c = 0; c < 3; ++c) {
-        const double colour_variance = mean_variance(s.rgba[4 * i + size_t(c)], s.rgb_odd[3 * i + size_t(c)], n, n_odd);
+        const double colour_variance =
+            halves_mean_variance(s.rgba[4 * i + size_t(c)], s.rgb_odd[3 * i + size_t(c)], n, n_odd);
         double modulation = 0.0;
         if (s.albedo) {
             const double light = illumination(s, i, c);
-            modulation = mean_variance(s.albedo[3 * i + size_t(c)], s.albedo_odd[3 * i + size_t(c)], n, n_odd) *
-                         light * light;
+            modulation =
+                halves_mean_variance(s.albedo[3 * i + size_t(c)], s.albedo_odd[3 * i + size_t(c)], n, n_odd) * light *
+                light;
         }
         v += modulation + colour_variance * SampleDistribution::kFilteredVarianceShare;
     }
@@ -120,7 +113,7 @@ double shadow_edge_variance(const Film::Sums& s, int w, int h, int x, int y) {
         for (int c = 0; c < 3; ++c) {
             const double sum = s.direct[3 * q + size_t(c)], odd = s.direct_odd[3 * q + size_t(c)];
             direct.add(c, sum / n);
-            if (has_halves(s, q)) noise[c] += mean_variance(sum, odd, n, n_odd);
+            if (has_halves(s, q)) noise[c] += halves_mean_variance(sum, odd, n, n_odd);
         }
     });
     double v = 0.0;
