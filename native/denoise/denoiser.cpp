@@ -93,24 +93,14 @@ inline float exp_negative(float x) {
     return p * std::bit_cast<float>((int32_t(whole) + 127) << 23);
 }
 
-// Channel c's even-half mean minus its odd-half mean, from the sums over
-// all samples and over the odd ones (both halves non-empty).
-inline float halves_difference(const float* sum, const float* sum_odd, uint32_t n_even, uint32_t n_odd, int c) {
-    return (sum[c] - sum_odd[c]) / float(n_even) - sum_odd[c] / float(n_odd);
-}
-
-// Variance of a mean of n samples (a feature's or the radiance's) from the
-// difference of its two halves' sums: |even mean - odd mean|^2 n_e n_o / n^2
-// (film.h), summed over channels.
+// Variance of a mean of n samples (a feature's or the radiance's) from its
+// two halves' sums (film.h, halves_mean_variance), summed over channels; 0
+// where a half is empty.
 float halves_variance(const float* sum, const float* sum_odd, uint32_t n, uint32_t n_odd) {
-    const uint32_t n_even = n - n_odd;
-    if (!n_odd || !n_even) return 0.0f;
-    float v = 0.0f;
-    for (int c = 0; c < 3; ++c) {
-        const float d = halves_difference(sum, sum_odd, n_even, n_odd, c);
-        v += d * d;
-    }
-    return v * float(n_even) * float(n_odd) / (float(n) * float(n));
+    if (!n_odd || n_odd >= n) return 0.0f;
+    double v = 0.0;
+    for (int c = 0; c < 3; ++c) v += halves_mean_variance(sum[c], sum_odd[c], n, n_odd);
+    return float(v);
 }
 
 // Reads pixel i of the film; false if it has samples but lacks a half.
@@ -852,20 +842,21 @@ bool prefilter_albedo(const Film::Sums& s, Image& img, Run& run) {
     if (!s.albedo) return true;
     const int w = img.width, h = img.height;
     const size_t size = size_t(w) * size_t(h);
-    // Each channel's variance of the mean from its halves (halves_variance's
-    // terms), then averaged over 3 x 3: one pixel's is a single chi-square
-    // draw.
+    // Each channel's variance of the mean from its halves, then averaged
+    // over 3 x 3: one pixel's is a single chi-square draw.
     std::vector<float> var(3 * size, 0.0f);
     std::vector<uint8_t> noisy(size, 0);
     for (size_t i = 0; i < size; ++i) {
-        const uint32_t n = s.count[i], n_odd = s.count_odd[i], n_even = n - n_odd;
-        if (!n_odd || !n_even) continue;
-        const float scale = float(n_even) * float(n_odd) / (float(n) * float(n));
+        const uint32_t n = s.count[i], n_odd = s.count_odd[i];
+        if (!n_odd || n_odd >= n) continue;
+        const double scale = double(n - n_odd) * double(n_odd) / (double(n) * double(n));
         for (int c = 0; c < 3; ++c) {
-            const float d = halves_difference(s.albedo + 3 * i, s.albedo_odd + 3 * i, n_even, n_odd, c);
-            var[size_t(c) * size + i] = d * d * scale;
-            // Rounding alone (sums of equal albedos over unequal counts) differs by ~1e-7.
-            if (std::abs(d) > 1e-5f * std::abs(img.planes[kAlbedo + c][i]) + 1e-7f) noisy[i] = 1;
+            const double v = halves_mean_variance(s.albedo[3 * i + c], s.albedo_odd[3 * i + c], n, n_odd);
+            var[size_t(c) * size + i] = float(v);
+            // The halves' means differ by more than rounding (sums of equal
+            // albedos over unequal counts differ by ~1e-7).
+            const double tolerance = 1e-5 * std::abs(img.planes[kAlbedo + c][i]) + 1e-7;
+            if (v > tolerance * tolerance * scale) noisy[i] = 1;
         }
     }
     if (std::none_of(noisy.begin(), noisy.end(), [](uint8_t v) { return v != 0; })) return true;
