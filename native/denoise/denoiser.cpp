@@ -178,17 +178,52 @@ constexpr float kSparseLightOutlierFactor = 12.0f;
 constexpr float kAgreementFactor = 2.0f;
 constexpr int kOutlierRadius = 2;
 
-// find_outliers returns the pixels both halves see brighter than the level
-// times `factor` (features): small features (a highlight, a caustic, a
-// light seen directly) that no filter can predict from their neighbours,
-// so keep_features leaves them unfiltered; and the factor apply_outliers
-// scales each half's pixel by (1 where it is no outlier).
+// In a scene without mirror or glass lobes only light that reached the
+// camera after at most one scattering (Film::add_direct_light) can make a
+// feature: a light seen directly, a highlight. There a pixel both halves
+// see bright by indirect light is two rare diffuse paths that happened to
+// fall into the same pixel, one in each half; kept unfiltered, it stood out
+// as a white speck in the shade (Sponza at 512 x 512, 16 spp: 164 specks
+// over 8x their neighbourhood's median carried 5 % of the squared error,
+// docs/results/denoise.md). A pixel counts as lit directly where the direct
+// light is at least this share of its radiance in both halves.
+constexpr float kDirectFeatureShare = 0.5f;
+
+// Per pixel, whether each half's direct light (Film::add_direct_light) is
+// at least kDirectFeatureShare of its radiance, by luminance. Empty without
+// a direct-light buffer: then every pixel may be a feature.
+std::vector<uint8_t> lit_directly(const Film::Sums& s, size_t size) {
+    std::vector<uint8_t> out;
+    if (!s.direct) return out;
+    out.assign(size, 0);
+    const auto lum = [](const float* v) { return v[0] + v[1] + v[2]; };
+    for (size_t i = 0; i < size; ++i) {
+        const float odd = lum(s.rgb_odd + 3 * i), direct_odd = lum(s.direct_odd + 3 * i);
+        const float even = lum(s.rgba + 4 * i) - odd, direct_even = lum(s.direct + 3 * i) - direct_odd;
+        out[i] = direct_odd >= kDirectFeatureShare * odd && direct_even >= kDirectFeatureShare * even;
+    }
+    return out;
+}
+
+// find_outliers returns the pixels both halves see brighter than
+// kOutlierFactor x the level (features): small features (a highlight, a
+// caustic, a light seen directly) that no filter can predict from their
+// neighbours, so keep_features leaves them unfiltered; and the factor
+// apply_outliers scales each half's pixel by (1 where it is no outlier).
+// Without caustics (DenoiseOptions::caustics) only pixels `direct` marks
+// (lit_directly; all where it is empty) can be features or agree with the
+// other half. Their feature level stays at kOutlierFactor where the
+// clipping level is kSparseLightOutlierFactor: a highlight seen in both
+// halves is a feature in any scene (at 12x, 16 noisy highlights recorded as
+// direct light kept 0.61 of their light, at 6x 0.94: tests/native/
+// test_denoise.cpp, SparseIndirectLightMakesNoFeaturesWithoutCaustics).
 struct Outliers {
     std::vector<uint8_t> features;
     std::vector<float> scale[2];
 };
 
-Outliers find_outliers(const Image& img, float factor) {
+Outliers find_outliers(const Image& img, bool caustics, const std::vector<uint8_t>& direct) {
+    const float factor = caustics ? kOutlierFactor : kSparseLightOutlierFactor;
     const int w = img.width, h = img.height;
     const size_t size = size_t(w) * size_t(h);
     Outliers out;
@@ -218,11 +253,13 @@ Outliers find_outliers(const Image& img, float factor) {
                     sum += lum[0][j] + lum[1][j];
                 }
             std::nth_element(values, values + (3 * n) / 4, values + n);
-            const float local = factor * std::max(values[(3 * n) / 4], sum / float(n));
-            features[i] = lum[0][i] > local && lum[1][i] > local;
+            const float level = std::max(values[(3 * n) / 4], sum / float(n)), local = factor * level;
+            const bool may_agree = caustics || direct.empty() || direct[i];
+            const float feature_level = kOutlierFactor * level;
+            features[i] = may_agree && lum[0][i] > feature_level && lum[1][i] > feature_level;
             for (int half = 0; half < 2; ++half) {
                 const float l = lum[half][i];
-                const float limit = std::max(local, kAgreementFactor * lum[1 - half][i]);
+                const float limit = may_agree ? std::max(local, kAgreementFactor * lum[1 - half][i]) : local;
                 if (l > limit) out.scale[half][i] = limit / l;
             }
         }
@@ -1164,14 +1201,14 @@ DenoiseResult denoise(const Film& film, const DenoiseOptions& options, const Den
     // filtered apart, the indirect rest, and the direct light where it
     // carries a large share of the noise (split_direct_light).
     const FilterParams dense(k, window, patch), wide(k, window, patch, ring_radius(width, height, options));
-    const float outlier_factor = options.caustics ? kOutlierFactor : kSparseLightOutlierFactor;
     std::vector<float> fa(3 * size, 0.0f), fb(3 * size, 0.0f);
     bool complete = false;
     tbb::task_arena arena(options.threads > 0 ? options.threads : tbb::task_arena::automatic);
     arena.execute([&] {
         if (!prefilter_albedo(sums, img, run)) return;
+        const Outliers outliers = find_outliers(img, options.caustics, lit_directly(sums, size));
         if (!split.apart) {
-            complete = filter_signal(img, find_outliers(img, outlier_factor), wide, true, run, fa, fb);
+            complete = filter_signal(img, outliers, wide, true, run, fa, fb);
             return;
         }
         // The outliers are the radiance's (where its sum is a firefly), as
@@ -1180,7 +1217,6 @@ DenoiseResult denoise(const Film& film, const DenoiseOptions& options, const Den
         // fixture's Cornell box against 1.3 %). One candidate each: two
         // filters then cost what one of two candidates does, and measured
         // no worse (docs/results/denoise.md).
-        const Outliers outliers = find_outliers(img, outlier_factor);
         for (const bool direct : {true, false}) {
             const PartSums part(sums, size, direct);
             read_part_halves(part.sums, img);

@@ -72,7 +72,8 @@ struct DenoiseOptions {
     // Whether the scene has a mirror or glass lobe (SceneFeatures::
     // can_make_caustics), through which a path can reach a light as a caustic: the
     // rarest, brightest paths, clipped at a lower outlier level
-    // (denoiser.cpp, find_outliers). True when unknown.
+    // (denoiser.cpp, find_outliers). Without them only direct light can make
+    // a feature (a pixel kept unfiltered). True when unknown.
     bool caustics = true;
     int threads = 0;        // 0 = all cores
     // Polled while filtering (null: none): once set, denoise() stops within

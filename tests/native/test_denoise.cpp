@@ -166,8 +166,12 @@ TEST(Denoise, ErrorEstimateWithinFactorTwoOfTrueError) {
 // caustic) are features, not fireflies: no neighbour predicts them, so
 // filtering or clipping them loses their energy (the glass scene's
 // highlights lost 60 % before keep_features, docs/results/denoise.md).
-TEST(Denoise, KeepsIsolatedHighlightsSeenInBothHalves) {
-    constexpr float kDim = 0.05f, kBright = 2.0f;
+// A film of dim light (kDim) with a highlight (kBright) on a 16-pixel grid,
+// every sample exponentially distributed; `direct`: the highlights' samples
+// are also recorded as direct light (Film::add_direct_light), as a
+// renderer records a highlight or a light seen directly.
+constexpr float kDim = 0.05f, kBright = 2.0f;
+Film highlights_film(bool direct) {
     auto exact = [](int x, int y) { return (x % 16 == 8 && y % 16 == 8) ? kBright : kDim; };
     Film film(kSize, kSize);
     film.enable_denoising_features();
@@ -177,17 +181,28 @@ TEST(Denoise, KeepsIsolatedHighlightsSeenInBothHalves) {
     for (int pass = 0; pass < 16; ++pass)
         for (int y = 0; y < kSize; ++y)
             for (int x = 0; x < kSize; ++x) {
-                film.add_sample(x, y, Vec3f(exact(x, y) * noise(rng)), 1.0f, 1.0f, n, uint32_t(pass));
+                const Vec3f v(exact(x, y) * noise(rng));
+                film.add_sample(x, y, v, 1.0f, 1.0f, n, uint32_t(pass));
                 film.add_denoising_features(x, y, albedo, n, 0.0f, uint32_t(pass));
+                if (direct) film.add_direct_light(x, y, exact(x, y) == kBright ? v : Vec3f(0.0f), uint32_t(pass));
             }
-    const DenoiseResult d = denoise(film);
-    ASSERT_EQ(d.rgb.size(), size_t(3 * kSize * kSize));
+    return film;
+}
+
+// The highlights' mean denoised value over kBright.
+double highlights_kept(const std::vector<float>& rgb) {
     double kept = 0.0;
     int highlights = 0;
     for (int y = 8; y < kSize; y += 16)
-        for (int x = 8; x < kSize; x += 16, ++highlights) kept += d.rgb[3 * (size_t(y) * kSize + size_t(x))] / kBright;
-    kept /= highlights;
-    std::printf("mean denoised / exact over %d highlights: %.3f\n", highlights, kept);
+        for (int x = 8; x < kSize; x += 16, ++highlights) kept += rgb.at(3 * (size_t(y) * kSize + size_t(x))) / kBright;
+    return kept / highlights;
+}
+
+TEST(Denoise, KeepsIsolatedHighlightsSeenInBothHalves) {
+    const DenoiseResult d = denoise(highlights_film(false));
+    ASSERT_EQ(d.rgb.size(), size_t(3 * kSize * kSize));
+    const double kept = highlights_kept(d.rgb);
+    std::printf("mean denoised / exact over 16 highlights: %.3f\n", kept);
     // 16 exponential samples: the mean's relative spread is 0.25, over 16
     // highlights 0.06. Filtered into their neighbours they keep a few %.
     EXPECT_GT(kept, 0.8);
@@ -293,6 +308,43 @@ TEST(Denoise, OutlierLevelIsLowerWhereTheSceneCanMakeCaustics) {
     EXPECT_LT(sparse_none, 0.8 * sparse_caustics);
     EXPECT_LT(excess_caustics, 0.9 * exact_excess);
     EXPECT_NEAR(excess_none, exact_excess, 0.05 * exact_excess);
+}
+
+// Sparse light (sparse_light_film) in a scene that cannot make caustics
+// (DenoiseOptions::caustics false): where both halves of a pixel caught one
+// of its rare paths, the pixel is not a feature (no mirror or glass lobe
+// can focus light into a caustic there, and the light is indirect: no
+// highlight or light seen directly), so it is clipped and filtered like any
+// outlier. Kept unfiltered, such pixels were white specks in the shade
+// (Sponza, docs/results/denoise.md, twenty-second session). The same light
+// recorded as direct light (Film::add_direct_light: a highlight, a light
+// seen directly, which can be a feature in any scene) keeps them.
+TEST(Denoise, SparseIndirectLightMakesNoFeaturesWithoutCaustics) {
+    constexpr float kMean = 0.1f;
+    DenoiseOptions options;
+    options.caustics = false;
+    for (const unsigned seed : {41u, 42u}) {
+        const Film film = sparse_light_film(kMean, 1.0f / 50.0f, seed);
+        const DenoiseResult d = denoise(film, options);
+        ASSERT_EQ(d.rgb.size(), size_t(3 * kSize * kSize));
+        int standing_out = 0;
+        double sum = 0.0;
+        for (size_t i = 0; i < d.rgb.size(); i += 3) {
+            standing_out += d.rgb[i] > 3.0f * kMean;
+            sum += d.rgb[i];
+        }
+        const double mean = sum / double(kSize * kSize);
+        std::printf("sparse indirect light without caustics, seed %u: %d pixels above 3x the mean (a pixel "
+                    "whose halves caught one path each is 6.25x), mean / exact %.3f\n",
+                    seed, standing_out, mean / kMean);
+        EXPECT_EQ(standing_out, 0);
+        EXPECT_GT(mean, 0.8 * kMean);
+        EXPECT_LT(mean, 1.2 * kMean);
+    }
+    const double kept = highlights_kept(denoise(highlights_film(true), options).rgb);
+    std::printf("highlights recorded as direct light, without caustics: mean denoised / exact %.3f\n", kept);
+    EXPECT_GT(kept, 0.8);
+    EXPECT_LT(kept, 1.2);
 }
 
 // Direct light filtered apart. A surface whose direct light has detail at
