@@ -1206,7 +1206,9 @@ DenoiseResult denoise(const Film& film, const DenoiseOptions& options, const Den
     tbb::task_arena arena(options.threads > 0 ? options.threads : tbb::task_arena::automatic);
     arena.execute([&] {
         if (!prefilter_albedo(sums, img, run)) return;
-        const Outliers outliers = find_outliers(img, options.caustics, lit_directly(sums, size));
+        // With caustics any pixel may be a feature: no direct-light test to make.
+        const Outliers outliers =
+            find_outliers(img, options.caustics, options.caustics ? std::vector<uint8_t>{} : lit_directly(sums, size));
         if (!split.apart) {
             complete = filter_signal(img, outliers, wide, true, run, fa, fb);
             return;

@@ -734,7 +734,8 @@ int Renderer::batch_size(int done, int spp, double seconds_per_pass, double elap
     count = std::min(count, std::max(2, done / 2));
     if (settings_.distributes_samples()) {
         // A batch ends at the decision.
-        if (done < uniform_passes()) count = std::min(count, uniform_passes() - done);
+        const int uniform = uniform_passes();
+        if (done < uniform) count = std::min(count, uniform - done);
     }
     if (settings_.adaptive) {
         const int first_decision = first_adaptive_decision();
