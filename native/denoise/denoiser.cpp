@@ -456,9 +456,26 @@ void row_weights(const Image& img, ptrdiff_t p, ptrdiff_t q, const float* __rest
 constexpr int kAlbedoRegressors = 3;
 constexpr int kRegressors = 1 + kAlbedoRegressors + 2;  // 1, albedo (3), dx / r, dy / r
 constexpr int kMoments = kRegressors * (kRegressors + 1) / 2;
-// Ridge on the slopes, relative to the sum of weights: a regressor that
-// hardly varies over a window (a flat wall's albedo) gets no slope from noise.
-constexpr double kRidge = 0.1;
+// Ridges on the slopes, relative to the sum of weights: a regressor that
+// hardly varies over a window gets no slope from noise.
+// The screen offsets span +-1 over the dense window whatever the image, and
+// their slope is fitted to noisy light: 0.1.
+// The albedo is (pre)filtered and nearly noise-free, but its differences
+// within a window are small where they matter: a pixel on a silhouette
+// whose samples see a column of albedo 0.5 and a sun-lit wall of 0.6 is as
+// bright as its share of wall samples, and only its mean albedo, 0.5 to
+// 0.6, says that share. A ridge of 0.1 (the moment of a 0.3 difference)
+// took that slope away, and the regression averaged pixels of different
+// coverage into a blur. Split into bias and variance (two seeds), 39 % of
+// Sponza's denoised squared error at 512 x 512, 16 spp was the filter's
+// bias, half of it on geometric edges; 1e-3 removes a third of that bias
+// (tests/native/test_denoise.cpp, LowContrastAlbedoTellsTheCoverageOfA
+// SilhouettePixel). At 512 x 512, 16 spp: Sponza 0.0352 -> 0.0336,
+// the bunny -2.2 %, the others within 0.6 %; 1e-4 gained 0.3 % more on
+// Sponza but lost 1-1.5 % on three scenes (docs/results/denoise.md,
+// twenty-third session).
+constexpr double kSlopeRidge = 0.1;
+constexpr double kAlbedoRidge = 1e-3;
 
 // Per band: the normal equations of each half (planes of the band's pixels):
 // sum w z_i z_j (i >= j) and sum w z_i y_c.
@@ -519,7 +536,7 @@ void solve_fit(const NormalEquations& eq, int half, size_t i, float* beta) {
     for (int c = 0; c < 3; ++c)
         for (int r = 0; r < kRegressors; ++r) b[c][r] = eq.targets[half][c * kRegressors + r][i];
     const double sum_w = a[0][0];
-    for (int r = 1; r < kRegressors; ++r) a[r][r] += kRidge * sum_w;
+    for (int r = 1; r < kRegressors; ++r) a[r][r] += (r <= kAlbedoRegressors ? kAlbedoRidge : kSlopeRidge) * sum_w;
     bool ok = sum_w > 0.0;
     for (int r = 0; r < kRegressors && ok; ++r) {  // a = L L^T in the lower triangle
         for (int c = 0; c <= r; ++c) {
