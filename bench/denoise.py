@@ -48,15 +48,22 @@ CLI = REPO / "build" / "coherent"
 NAMES = ["noisy16", "noisy64", "noisy256", "denoised16", "denoised64"]
 
 
-def read_rgb(path, pass_name="Combined"):
+def read_channels(path, keys):
+    """The named channels of an EXR (height x width x len(keys), float64);
+    `keys` may be a function of the file's channel names."""
     inp = oiio.ImageInput.open(str(path))
     spec = inp.spec()
     px = np.asarray(inp.read_image(0, 0, 0, spec.nchannels, "float")).reshape(spec.height, spec.width, -1)
     inp.close()
     names = list(spec.channelnames)
-    # The CLI writes R, G, B; Blender's multilayer EXR ViewLayer.<pass>.R, ...
-    keys = list("RGB") if "R" in names else [f"ViewLayer.{pass_name}.{c}" for c in "RGB"]
+    keys = keys(names) if callable(keys) else keys
     return px[:, :, [names.index(k) for k in keys]].astype(np.float64)
+
+
+def read_rgb(path, pass_name="Combined"):
+    # The CLI writes R, G, B; Blender's multilayer EXR ViewLayer.<pass>.R, ...
+    return read_channels(path, lambda names: list("RGB") if "R" in names
+                         else [f"ViewLayer.{pass_name}.{c}" for c in "RGB"])
 
 
 def cli_render(scene, out, res, spp, seed, denoise=False, extra=()):
@@ -72,9 +79,10 @@ def cached_names(res, ref_spp, sampler):
             "n256": (n256, 256, 7)}
 
 
-def glb_images(scene, tmp, res, ref_spp, cache, sampler="", uniform=False):
-    """The references and the noisy 256-spp render do not depend on the
-    denoiser: they are kept in `cache` and reused by later runs."""
+def glb_cached(scene, cache, res, ref_spp, sampler=""):
+    """The references (refa, refb) and the noisy 256-spp render (n256) of a
+    glTF scene: they do not depend on the denoiser, so they are kept in
+    `cache` and reused by later runs (rendered into it when missing)."""
     img = {}
     extra = ("--sampler", sampler) if sampler else ()
     for key, (name, spp, seed) in cached_names(res, ref_spp, sampler).items():
@@ -82,7 +90,13 @@ def glb_images(scene, tmp, res, ref_spp, cache, sampler="", uniform=False):
         if not path.exists():
             cli_render(scene, path, res, spp, seed, extra=extra if key == "n256" else ())
         img[key] = read_rgb(path)
+    return img
+
+
+def glb_images(scene, tmp, res, ref_spp, cache, sampler="", uniform=False):
+    img = glb_cached(scene, cache, res, ref_spp, sampler)
     img["noisy256"] = img.pop("n256")
+    extra = ("--sampler", sampler) if sampler else ()
     for spp in (16, 64):
         cli_render(scene, tmp / f"n{spp}.exr", res, spp, 7, extra=extra)
         img[f"noisy{spp}"] = read_rgb(tmp / f"n{spp}.exr")

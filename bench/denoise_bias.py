@@ -31,15 +31,6 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 import denoise as bench  # noqa: E402
 
 
-def read_channels(path, names):
-    inp = bench.oiio.ImageInput.open(str(path))
-    spec = inp.spec()
-    px = np.asarray(inp.read_image(0, 0, 0, spec.nchannels, "float")).reshape(spec.height, spec.width, -1)
-    inp.close()
-    have = list(spec.channelnames)
-    return px[:, :, [have.index(n) for n in names]].astype(np.float64)
-
-
 def geometric_edges(features):
     """Pixels whose 3 x 3 neighbourhood spans a log-depth step over 0.2 or
     a summed normal range over 0.5 (silhouettes and creases)."""
@@ -51,18 +42,6 @@ def geometric_edges(features):
     depth = np.log(np.clip(features[:, :, 0], 1e-3, 1e10))
     normal = sum(spread(features[:, :, 1 + c]) for c in range(3))
     return (spread(depth) > 0.2) | (normal > 0.5)
-
-
-def cached(scene, cache, res, ref_spp):
-    """The two reference halves and noisy 256 spp of bench/denoise.py's cache
-    (rendered into it when missing)."""
-    img = {}
-    for key, (name, spp, seed) in bench.cached_names(res, ref_spp, "").items():
-        path = cache / f"{name}.exr"
-        if not path.exists():
-            bench.cli_render(scene, path, res, spp, seed)
-        img[key] = bench.read_rgb(path)
-    return img
 
 
 def bias_map(label, e7, e8, ref_var, path):
@@ -115,7 +94,7 @@ def main():
         key = label.replace(" ", "_").replace(".", "_")
         cache = Path(args.cache) / key
         cache.mkdir(parents=True, exist_ok=True)
-        img = cached(path, cache, args.res, args.ref_spp)
+        img = bench.glb_cached(path, cache, args.res, args.ref_spp)
         ref, ref_var = (img["refa"] + img["refb"]) / 2, (img["refa"] - img["refb"]) ** 2 / 4
         d = {}
         for seed in (7, 8):
@@ -123,7 +102,7 @@ def main():
             bench.cli_render(path, render, args.res, args.spp, seed, denoise=True)
             d[seed] = bench.read_rgb(render)
         # The features of the denoised render (its Denoising Depth and Normal).
-        features = read_channels(work / f"{key}_7.exr", ["Denoising Depth.Z"] +
+        features = bench.read_channels(work / f"{key}_7.exr", ["Denoising Depth.Z"] +
                                  [f"Denoising Normal.{c}" for c in "XYZ"])
         edges = np.repeat(geometric_edges(features)[:, :, None], 3, axis=2)
         whole = np.ones_like(edges)
