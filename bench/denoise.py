@@ -217,6 +217,7 @@ def main():
     ap.add_argument("--uniform", action="store_true", help="denoised renders without Distribute Samples")
     args = ap.parse_args()
     out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)  # before the renders: a missing folder must not lose them
     work = Path(tempfile.mkdtemp(prefix="denoise_bench_"))
     subprocess.run([sys.executable, str(REPO / "tests" / "fixtures" / "make_gltf.py"), str(work)], check=True)
     scenes = [("fixture cornell_box.glb (CLI)", work / "cornell_box.glb", glb_images)]

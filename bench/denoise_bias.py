@@ -88,6 +88,7 @@ def main():
         scenes += [(f"shared {p.name}", p) for p in sorted(bench.SHARED.glob("*.glb"))]
     rows = []
     out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
     for label, path in scenes:
         if args.only not in label:
             continue

@@ -632,7 +632,12 @@ bool Renderer::render(const ProgressCallback& progress) {
             const double fraction = !sample_targets_.empty()
                                         ? double(stats_.spp) / spp
                                         : (done + double(tile_passes) / L.tiles) / spp;
-            if (reporter.due() && !reporter.report(stats_.spp, std::min(fraction, 1.0), stats_)) cancel();
+            // The batch's last kernel call leaves the report to the batch's
+            // end, which counts its samples: a report here would say the
+            // whole render is done while samples_done is still the old count.
+            if (tile_passes < count * L.tiles && reporter.due() &&
+                !reporter.report(stats_.spp, std::min(fraction, 1.0), stats_))
+                cancel();
         });
         if (cancelled()) break;
         const double seconds = std::chrono::duration<double>(Clock::now() - batch_start).count();
