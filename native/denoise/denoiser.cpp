@@ -453,12 +453,13 @@ void row_weights(const Image& img, ptrdiff_t p, ptrdiff_t q, const float* __rest
 // a pixel from a quarter of the mean count (at least 2) to 16 x it
 // (sample_distribution.h), and a pixel with 200 samples on a shadow line
 // or a silhouette then pulls its window's fit through its own, nearly
-// exact mean instead of counting as much as a neighbour of 8. At 512 x 512, 16 spp it lowered the denoised
-// error on 11 of 12 scenes (Sponza 0.0336 -> 0.0326, the public Cornell
-// box -10 %) and raised the glass scene's 0.8 %; the counts' square root
-// or power 1.5 did less, and weighing the evaluations (below) by the
-// centre's count as well did worse (docs/results/denoise.md, twenty-fourth
-// session). Uniformly sampled, every pair's count is the same: no change.
+// exact mean instead of counting as much as a neighbour of 8. At 512 x
+// 512, 16 spp it lowered the denoised error on 11 of 12 scenes (Sponza
+// 0.0336 -> 0.0326, the public Cornell box -10 %) and raised the glass
+// scene's 0.8 %; the counts' square root or power 1.5 did less, and
+// weighing the evaluations (below) by the centre's count as well did worse
+// (docs/results/denoise.md, twenty-fourth session). Uniformly sampled,
+// every pair's count is the same: no change.
 // Collaborative: every pixel's output is the weighted mean of the fits of
 // all windows that contain it, each evaluated at that pixel. The weights
 // are symmetric (w(p, q) = w(q, p): the patch and feature distances are),

@@ -37,9 +37,10 @@ Vec3f exact_pixel(int x, int y) { return exact_albedo(x, y) * exact_light(x, y);
 
 // A side x side film of `spp` passes; each sample is exact(x, y) times a
 // mean-one exponential draw (a heavy tail, like path-traced light), with
-// exact features (albedo(x, y), one normal).
+// exact features (albedo(x, y), one normal). With `counts` (one a pixel,
+// row by row), a pixel takes samples only in its first counts[i] passes.
 template <class Exact, class Albedo>
-Film noisy_film(int side, int spp, uint32_t seed, Exact&& exact, Albedo&& albedo) {
+Film noisy_film(int side, int spp, uint32_t seed, Exact&& exact, Albedo&& albedo, const std::vector<int>& counts = {}) {
     Film film(side, side);
     film.enable_denoising_features();
     std::mt19937 rng(seed);
@@ -47,6 +48,7 @@ Film noisy_film(int side, int spp, uint32_t seed, Exact&& exact, Albedo&& albedo
     for (int pass = 0; pass < spp; ++pass)
         for (int y = 0; y < side; ++y)
             for (int x = 0; x < side; ++x) {
+                if (!counts.empty() && pass >= counts[size_t(y * side + x)]) continue;
                 const Vec3f n(0.0f, 0.0f, -1.0f);
                 film.add_sample(x, y, exact(x, y) * noise(rng), 1.0f, 1.0f, n, uint32_t(pass));
                 film.add_denoising_features(x, y, albedo(x, y), n, 0.0f, uint32_t(pass));
@@ -539,22 +541,11 @@ TEST(Denoise, LowContrastAlbedoTellsTheCoverageOfASilhouettePixel) {
 // count; one that weighs the means alike has that of the mean of 1/n,
 // 4.3 x higher.
 Film counts_film(bool unequal, uint32_t seed) {
-    Film film(kSize, kSize);
-    film.enable_denoising_features();
-    std::mt19937 rng(seed), pick(seed + 1);
-    std::exponential_distribution<float> noise(1.0f);
-    std::vector<int> count(kSize * kSize, 64);
-    if (unequal)
-        for (int& c : count) c = (pick() & 1) ? 120 : 8;
-    const Vec3f n(0.0f, 0.0f, -1.0f);
-    for (int pass = 0; pass < 120; ++pass)
-        for (int y = 0; y < kSize; ++y)
-            for (int x = 0; x < kSize; ++x) {
-                if (pass >= count[size_t(y * kSize + x)]) continue;
-                film.add_sample(x, y, exact_pixel(x, y) * noise(rng), 1.0f, 1.0f, n, uint32_t(pass));
-                film.add_denoising_features(x, y, exact_albedo(x, y), n, 0.0f, uint32_t(pass));
-            }
-    return film;
+    if (!unequal) return noisy_film(64, seed);
+    std::mt19937 pick(seed + 1);
+    std::vector<int> counts(kSize * kSize);
+    for (int& c : counts) c = (pick() & 1) ? 120 : 8;
+    return noisy_film(kSize, 120, seed, exact_pixel, exact_albedo, counts);
 }
 
 TEST(Denoise, PixelsWeighByTheirSampleCounts) {
